@@ -1,0 +1,112 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+#
+# Reflection Models: build, test and demo targets.
+#
+#   make test                  run the test suite (Blender 5.2 if Python 3.13 exists, else 4.5)
+#   make test BLENDER=4.5      run it against bpy 4.5 (Python 3.11) in .venv-4.5
+#   make test-all              both versions, one after the other
+#   make zip                   dist/reflection_models-<version>.zip
+#   make demo / make bench     the demo and benchmark scripts
+#   make venv                  only create/update the virtual environment
+#   make clean                 remove build/ and dist/ (the venvs stay; see distclean)
+#
+# Every target creates its own virtual environment on first use.  A stamp file
+# named after a hash of the requirements makes later runs skip the setup.
+
+SHELL := /bin/bash
+.DEFAULT_GOAL := test
+
+ifeq ($(origin PYENV_ROOT),undefined)
+  PYENV_ROOT := $(shell pyenv root 2>/dev/null)
+endif
+
+# A usable interpreter of version $(1) ("3.13"): pyenv's installs first, then
+# python$(1) on PATH.  Each candidate is run once, because a pyenv shim can
+# exist on PATH without the version being selected.  Free-threaded builds are
+# skipped (bpy does not support them).
+python_check = import sys, sysconfig; sys.exit(not (sys.version_info[:2] == tuple(map(int, "$(1)".split("."))) and not sysconfig.get_config_var("Py_GIL_DISABLED")))
+python_ok = $(shell "$(1)" -c '$(call python_check,$(2))' >/dev/null 2>&1 && echo ok)
+# first_python(candidates, version): the first candidate that passes the check.
+first_python = $(if $(1),$(if $(call python_ok,$(firstword $(1)),$(2)),$(firstword $(1)),$(call first_python,$(wordlist 2,999,$(1)),$(2))))
+find_python = $(or $(call first_python,$(sort $(wildcard $(PYENV_ROOT)/versions/$(1)*/bin/python3)),$(1)),$(call first_python,$(shell command -v python$(1) 2>/dev/null),$(1)))
+
+# BLENDER selects the bpy series; without it, 5.2 if a Python 3.13 exists.
+# An unrelated BLENDER in the environment (say, a path to a binary) is ignored.
+ifeq ($(origin BLENDER),environment)
+  ifeq ($(filter 5.2 4.5,$(BLENDER)),)
+    BLENDER :=
+  endif
+endif
+ifeq ($(strip $(BLENDER)),)
+  PYTHON_313 := $(call find_python,3.13)
+  BLENDER := $(if $(PYTHON_313),5.2,4.5)
+endif
+
+ifeq ($(BLENDER),5.2)
+  PYVER := 3.13
+  VENV := .venv
+else ifeq ($(BLENDER),4.5)
+  PYVER := 3.11
+  VENV := .venv-4.5
+else
+  $(error BLENDER must be 5.2 or 4.5, not "$(BLENDER)")
+endif
+
+REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest
+REQ_HASH := $(shell printf '%s' '$(PYVER) $(REQUIREMENTS)' | md5sum | cut -c1-12)
+STAMP := $(VENV)/.reflection-models-$(REQ_HASH).stamp
+PY := $(VENV)/bin/python
+
+# Throwaway temp folder for test runs (every OSL compile leaves an .oso there).
+TEST_TMP := $(CURDIR)/build/tmp/test-$(BLENDER)
+RUN_TMP := $(CURDIR)/build/tmp/run-$(BLENDER)
+PYTEST_ARGS ?=
+
+.PHONY: test test-all zip demo bench venv clean distclean
+
+venv: $(STAMP)
+
+$(STAMP):
+	@set -e; \
+	if [ ! -x "$(PY)" ]; then \
+	  base="$(call find_python,$(PYVER))"; \
+	  if [ -z "$$base" ]; then \
+	    echo "error: BLENDER=$(BLENDER) needs Python $(PYVER) (pyenv's $(PYENV_ROOT)/versions/$(PYVER)*/bin/python3 or python$(PYVER) on PATH); none found" >&2; \
+	    exit 1; \
+	  fi; \
+	  echo "Creating $(VENV) with $$base"; \
+	  "$$base" -m venv "$(VENV)"; \
+	fi
+	$(PY) -m pip install --quiet $(REQUIREMENTS)
+	@rm -f $(VENV)/.reflection-models-*.stamp
+	@touch $@
+
+test: $(STAMP)
+	@rm -rf "$(TEST_TMP)" && mkdir -p "$(TEST_TMP)"
+	TMPDIR="$(TEST_TMP)" $(PY) -m pytest tests -q $(PYTEST_ARGS)
+
+test-all:
+	$(MAKE) test BLENDER=5.2
+	$(MAKE) test BLENDER=4.5
+
+zip: $(STAMP)
+	$(PY) -m tools.build_zip
+
+demo: zip
+	@mkdir -p "$(RUN_TMP)"
+	@if [ -f tools/demo.py ]; then \
+	  TMPDIR="$(RUN_TMP)" $(PY) -m tools.demo; \
+	else \
+	  echo "tools/demo.py does not exist yet: nothing to demo"; \
+	fi
+
+bench: $(STAMP)
+	@mkdir -p "$(RUN_TMP)"
+	TMPDIR="$(RUN_TMP)" $(PY) -m tools.bench
+
+clean:
+	rm -rf build dist .pytest_cache
+	find . \( -path ./.git -o -path './.venv*' \) -prune -o -name __pycache__ -type d -prune -exec rm -rf {} +
+
+distclean: clean
+	rm -rf .venv .venv-4.5
