@@ -21,6 +21,11 @@ Set-up
   at the hit point, and the per-pixel ``normal``, ``tangent``, ``wi``,
   ``wo`` and hit ``position``.
 
+Because every pixel shares ``wi`` and ``wo``, the angle between L and
+H = normalize(L + E) is the same over the whole image: a Fresnel term is
+measured at one angle per render.  :func:`light_for_half_angle` picks the
+light for a given ``theta_d``; sweep it to cover the Fresnel curve.
+
 Typical use::
 
     g = build_gonio_scene(material, light_dir=(0.3, 0.2, 0.93), resolution=128)
@@ -98,6 +103,19 @@ def hemisphere_tiles(tilts_deg=DEFAULT_TILTS_DEG, azimuths_deg=DEFAULT_AZIMUTHS_
     return tiles
 
 
+def light_for_half_angle(theta_d_deg, azimuth_deg=0.0, *, view_dir=(0.0, 0.0, 1.0),
+                         up_hint=None):
+    """The light direction making ``angle(L, H) = angle(E, H) = theta_d`` with
+    the camera direction ``view_dir``: ``L`` lies ``2 theta_d`` away from
+    ``view_dir``, toward ``azimuth_deg`` (0 = camera right, 90 = camera up).
+    ``theta_d`` must lie in [0, 90) degrees."""
+    if not 0.0 <= theta_d_deg < 90.0:
+        raise ValueError("theta_d must lie in [0, 90) degrees")
+    basis = camera_basis(view_dir, up_hint)
+    t, a = math.radians(2.0 * theta_d_deg), math.radians(azimuth_deg)
+    return basis @ np.array([math.sin(t) * math.cos(a), math.sin(t) * math.sin(a), math.cos(t)])
+
+
 @dataclass
 class GonioScene:
     """A built gonioreflectometer scene and its per-pixel geometry.
@@ -149,15 +167,17 @@ class GonioScene:
     def expected(self, shade):
         """Expected image ``(H, W, 3)`` from ``shade(wi, wo, normal, tangent)``,
         which receives ``(n, 3)`` arrays of the masked pixels and returns the
-        radiance under unit irradiance, ``f_r * max(0, N.wi)``, as ``(n,)`` or
-        ``(n, 3)``; multiplied by the sun strength; 0 outside the mask."""
+        radiance under unit irradiance, ``f_r * max(0, N.wi)``, as ``(n,)``
+        (grey), ``(n, 3)`` or anything broadcasting to it (e.g. a constant
+        ``(3,)`` colour); multiplied by the sun strength; 0 outside the mask."""
         m = self.mask
+        n = int(m.sum())
         values = np.asarray(shade(self.wi[m], self.wo[m], self.normal[m], self.tangent[m]),
                             dtype=np.float64)
-        if values.ndim == 1:
-            values = values[:, None]
+        if values.ndim == 1 and values.shape[0] == n:
+            values = values[:, None]  # one grey value per pixel
         out = np.zeros(self.mask.shape + (3,))
-        out[m] = np.broadcast_to(values, (int(m.sum()), 3)) * self.strength
+        out[m] = np.broadcast_to(values, (n, 3)) * self.strength
         return out
 
     def reference(self, model, **params):
