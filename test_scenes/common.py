@@ -134,7 +134,8 @@ def new_scene(name):
     scene.render.engine = 'CYCLES'
     scene.cycles.device = 'CPU'
     world = bpy.data.worlds.new(name + "_world")
-    world.use_nodes = True
+    if bpy.app.version < (5, 0):  # always True (and deprecated) from 5.0
+        world.use_nodes = True
     scene.world = world
     return scene
 
@@ -272,7 +273,7 @@ def material_uses_osl(material):
                 return True
         return False
 
-    return bool(material and material.use_nodes and walk(material.node_tree))
+    return bool(material is not None and walk(material.node_tree))
 
 
 # --------------------------------------------------------------------------
