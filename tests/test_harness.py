@@ -287,6 +287,35 @@ def test_osl_emission_constant_and_light_dependent(bpy, tmp_path):
     assert stats["max_rel_error"] < 1e-5
 
 
+GLOBALS = """
+    #include "stdcycles.h"
+    shader t_globals(int Which = 0, vector Tangent = vector(0), output closure color Out = 0)
+    {
+        vector w = N;
+        if (Which == 1) w = I;
+        if (Which == 2) w = Tangent;
+        if (Which == 3) w = normalize(dPdu);
+        Out = (color(0.5) + 0.5 * color(w[0], w[1], w[2])) * emission();
+    }
+"""
+
+
+def test_osl_globals_conventions(bpy, tmp_path):
+    """In Cycles OSL, N is the world-space normal and I points toward the
+    viewer (= wo); dPdu is not the UV tangent (feed the Tangent node in)."""
+    mat, node = osl_material(bpy, tmp_path, "t_globals", GLOBALS, tangent=True)
+    errors = {}
+    for which, key in enumerate(("normal", "wo", "tangent", "tangent")):
+        node.inputs["Which"].default_value = which
+        g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=64, name=f"globals{which}")
+        img = gonio.render(g)
+        errors[which] = float(np.abs(img - (0.5 + 0.5 * getattr(g, key)))[g.inside].max())
+    print(f"OSL globals, max abs error: N {errors[0]:.1e}, I {errors[1]:.1e}, "
+          f"Tangent input {errors[2]:.1e}, dPdu {errors[3]:.2f}")
+    assert errors[0] < 1e-6 and errors[1] < 1e-6 and errors[2] < 1e-6
+    assert errors[3] > 0.1
+
+
 def test_make_script_node_reports_compiler_errors(bpy, tmp_path):
     from addon import oslutil
 
@@ -409,6 +438,35 @@ def test_dielectric_bsdf_reflection_is_exact_fresnel_times_ggx(bpy, tmp_path, io
     mat, _ = osl_material(bpy, tmp_path, "t_dielectric", DIELECTRIC, tangent=True, A=a, Ior=ior)
     stats = fresnel_measure(bpy, mat, [ior] * 3, [0.0] * 3, a, theta_d)
     print(f"dielectric_bsdf ior={ior} theta_d={theta_d}: max rel {stats['max_rel_error']:.2e}")
+    assert stats["max_rel_error"] < 1e-4
+
+
+SCHLICK = """
+    #include "stdcycles.h"
+    shader t_schlick(float A = 0.3, vector Tangent = vector(1, 0, 0),
+                     color F0 = color(0.04, 0.5, 0.9), color F90 = color(1.0, 0.9, 0.8),
+                     float Exponent = 5.0, output closure color Out = 0)
+    {
+        Out = generalized_schlick_bsdf(N, Tangent, color(1), color(0), A, A, F0, F90,
+                                       Exponent, "ggx");
+    }
+"""
+
+
+@pytest.mark.parametrize("theta_d", THETA_D)
+def test_generalized_schlick_bsdf_is_schlick_times_ggx(bpy, tmp_path, theta_d):
+    a, f0, f90, p = 0.3, np.array([0.04, 0.5, 0.9]), np.array([1.0, 0.9, 0.8]), 5.0
+    mat, _ = osl_material(bpy, tmp_path, "t_schlick", SCHLICK, tangent=True, A=a)
+    light = gonio.light_for_half_angle(theta_d, azimuth_deg=30.0)
+    tilts = [t for t in np.linspace(theta_d - 25.0, theta_d + 8.0, 6) if 0.0 <= t < 88.0]
+    tiles = gonio.hemisphere_tiles(tilts, (0.0, 30.0, 60.0))
+
+    def expected(wi, wo, n, t):
+        c = dot(wi, gonio.normalize(wi + wo))[:, None]
+        return ggx_smith(wi, wo, n, t, a, a)[:, None] * (f0 + (f90 - f0) * (1.0 - c) ** p)
+
+    g, img, stats = measure(bpy, mat, expected, light=light, tiles=tiles, resolution=128)
+    print(f"generalized_schlick_bsdf theta_d={theta_d}: max rel {stats['max_rel_error']:.2e}")
     assert stats["max_rel_error"] < 1e-4
 
 
