@@ -5,6 +5,7 @@
 #   make test                  run the test suite (Blender 5.2 if Python 3.13 exists, else 4.5)
 #   make test BLENDER=4.5      run it against bpy 4.5 (Python 3.11) in .venv-4.5
 #   make test-all              both versions, one after the other
+#   make test TESTS=tests/test_packaging.py PYTEST_ARGS=-x   a subset, extra pytest options
 #   make zip                   dist/reflection_models-<version>.zip
 #   make demo / make bench     the demo and benchmark scripts
 #   make venv                  only create/update the virtual environment
@@ -60,6 +61,7 @@ PY := $(VENV)/bin/python
 # Throwaway temp folder for test runs (every OSL compile leaves an .oso there).
 TEST_TMP := $(CURDIR)/build/tmp/test-$(BLENDER)
 RUN_TMP := $(CURDIR)/build/tmp/run-$(BLENDER)
+TESTS ?= tests
 PYTEST_ARGS ?=
 
 .PHONY: test test-all zip demo bench venv clean distclean
@@ -83,7 +85,7 @@ $(STAMP):
 
 test: $(STAMP)
 	@rm -rf "$(TEST_TMP)" && mkdir -p "$(TEST_TMP)"
-	TMPDIR="$(TEST_TMP)" $(PY) -m pytest tests -q $(PYTEST_ARGS)
+	TMPDIR="$(TEST_TMP)" $(PY) -m pytest $(TESTS) -q $(PYTEST_ARGS)
 
 test-all:
 	$(MAKE) test BLENDER=5.2
