@@ -703,21 +703,56 @@ def _shade_kajiya_kay(wi, wo, tangent, v):
     return sl[..., None] * v["kd"] + spec[..., None] * v["ks"]
 
 
+CHUNK = 1 << 15  # elements per slice: the temporaries stay in the CPU cache
+
+
+def _kernel(model, v, wi, wo, normal, tangent, with_cosine):
+    if model.kind == "fibre":
+        return _shade_kajiya_kay(wi, wo, tangent, v)
+    li, lo = _local(wi, wo, normal, tangent)
+    wdot = _dot(wi, wo) if model.id in ("phong", "blinn_phong") else None
+    out = _BRDFS[model.id](li, lo, wdot, v)
+    if with_cosine:
+        out = out * np.maximum(li[2], 0.0)[..., None]
+    return out
+
+
 def _evaluate(model_name, wi, wo, normal, tangent, params, with_cosine):
     model, v, _given = _check(model_name, params)
-    if model.kind == "fibre":
-        if not with_cosine:
-            raise ValueError(f"{model_name!r} is a fibre model with no BRDF on a surface; "
-                             "use shade(), which gives its reflected radiance")
-        out = _shade_kajiya_kay(wi, wo, tangent, v)
-    else:
-        li, lo = _local(wi, wo, normal, tangent)
-        wdot = _dot(_vec(wi, "wi"), _vec(wo, "wo")) if model.id in ("phong", "blinn_phong") else None
-        out = _BRDFS[model.id](li, lo, wdot, v)
-        if with_cosine:
-            out = out * np.maximum(li[2], 0.0)[..., None]
-    shape = np.broadcast_shapes(out.shape[:-1], np.shape(wi)[:-1], np.shape(wo)[:-1])
-    return np.broadcast_to(out, shape + (3,)).astype(float, copy=False)
+    if model.kind == "fibre" and not with_cosine:
+        raise ValueError(f"{model_name!r} is a fibre model with no BRDF on a surface; "
+                         "use shade(), which gives its reflected radiance")
+    wi, wo = _vec(wi, "wi"), _vec(wo, "wo")
+    normal, tangent = _vec(normal, "normal"), _vec(tangent, "tangent")
+    arrays = {k: a for k, a in v.items() if isinstance(a, np.ndarray)}
+    # Leading (broadcast) shape: vectors and colours carry a trailing axis.
+    leads = [wi.shape[:-1], wo.shape[:-1], normal.shape[:-1], tangent.shape[:-1]]
+    for k, a in arrays.items():
+        leads.append(a.shape[:-1] if model.param(k).kind == "color" else a.shape)
+    shape = np.broadcast_shapes(*leads)
+    size = math.prod(shape)
+    if size <= CHUNK:
+        out = _kernel(model, v, wi, wo, normal, tangent, with_cosine)
+        return np.broadcast_to(out, shape + (3,)).astype(float, copy=False)
+
+    def flat(a, colour=True):
+        trail = a.shape[-1:] if colour else ()
+        lead = a.shape[:-1] if colour else a.shape
+        if lead == ():
+            return a, False
+        return np.broadcast_to(a, shape + trail).reshape((size,) + trail), True
+
+    flat_vecs = [flat(x) for x in (wi, wo, normal, tangent)]
+    flat_params = {k: flat(a, model.param(k).kind == "color") for k, a in arrays.items()}
+    out = np.empty((size, 3))
+    for start in range(0, size, CHUNK):
+        sl = slice(start, start + CHUNK)
+        vecs = [x[sl] if per else x for x, per in flat_vecs]
+        vc = dict(v)
+        for k, (a, per) in flat_params.items():
+            vc[k] = a[sl] if per else a
+        out[sl] = _kernel(model, vc, *vecs, with_cosine)
+    return out.reshape(shape + (3,))
 
 
 def shade(model, wi, wo, *, normal=DEFAULT_NORMAL, tangent=DEFAULT_TANGENT, **params):
