@@ -304,3 +304,42 @@ METALS = {
     "copper": ((0.214, 1.06, 1.19), (3.67, 2.59, 2.41)),
     "chromium": ((3.11, 3.18, 2.39), (3.31, 3.33, 3.17)),
 }
+
+
+# --- inputs every node group has besides its model's parameters ---------------------
+# Exact mode evaluates the model for one light given by these inputs; "Bind
+# Light" drives them from a lamp.  Names are the OSL parameter names.
+
+LIGHT_INPUTS = (
+    Param("point_light", "Point Light", "factor", 0.0,
+          "Exact mode: 0 is a sun (uses Light Direction), 1 a point light (uses Light "
+          "Position); set by Bind Light", minimum=0.0, maximum=1.0, panel="Light"),
+    Param("light_direction", "Light Direction", "direction", (0.0, 0.0, 1.0),
+          "Exact mode, sun: world-space direction toward the light (normalised in the shader)",
+          panel="Light"),
+    Param("light_position", "Light Position", "position", (0.0, 0.0, 5.0),
+          "Exact mode, point light: world-space position of the light", panel="Light"),
+    Param("light_strength", "Light Strength", "float", 1.0,
+          "Exact mode: sun irradiance (W/m^2) or point-light intensity (W/sr)",
+          minimum=0.0, maximum=1e6, soft_max=10.0, panel="Light"),
+    Param("light_color", "Light Color", "color", (1.0, 1.0, 1.0),
+          "Exact mode: colour of the light", minimum=0.0, maximum=1e6, panel="Light"),
+    Param("shadows", "Shadows", "factor", 1.0,
+          "Exact mode: 1 casts a shadow ray toward the light (CPU only: trace() always "
+          "misses on OptiX), 0 ignores occluders", minimum=0.0, maximum=1.0, panel="Light"),
+)
+
+GEOMETRY_INPUTS = (
+    Param("shading_normal", "Normal", "normal", (0.0, 0.0, 0.0),
+          "Shading normal; unconnected (zero) uses the surface normal", panel="Geometry"),
+    Param("tangent", "Tangent", "normal", (0.0, 0.0, 0.0),
+          "Tangent (fibre or brush direction); unconnected (zero) uses the UV tangent",
+          panel="Geometry"),
+    Param("tangent_rotation", "Tangent Rotation", "angle", 0.0,
+          "Rotation of the tangent about the normal", minimum=-6.283185307179586,
+          maximum=6.283185307179586, panel="Geometry"),
+)
+
+# Outputs of every model shader besides its terms: BSDF (path traced), Direct
+# (the exact value as an emission closure) and Color (the exact value).
+MAIN_OUTPUTS = ("BSDF", "Direct", "Color")

@@ -1,0 +1,348 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Reflection Models: functions shared by every shader.
+//
+// Each function mirrors the one of the same name and argument order in
+// addon/reference.py, so the two can be read side by side; conventions and
+// slide errata are in shared/LECTURE-NOTES.md.  Directions point away from the
+// surface; (x, y, z) components are in the local frame (tangent, N x tangent,
+// normal).  Float32: where a formula is rearranged for precision it says so.
+
+#ifndef RM_COMMON_H
+#define RM_COMMON_H
+
+#include "rm_generated.h"
+
+#define RM_PI 3.14159265358979323846
+#define RM_LN2 0.69314718055994530942
+#define RM_SQRT_PI 1.77245385090551602730
+
+// Clamp that also maps NaN to the lower limit: bad input renders like the
+// range's limit, never as NaN (Cycles drops a closure with a NaN weight).
+float rm_clamp(float x, float lo, float hi)
+{
+    if (!(x >= lo))
+        return lo;
+    if (x > hi)
+        return hi;
+    return x;
+}
+
+color rm_clamp(color c, float lo, float hi)
+{
+    return color(rm_clamp(c[0], lo, hi), rm_clamp(c[1], lo, hi), rm_clamp(c[2], lo, hi));
+}
+
+// log(1 + x) accurate for small x in float32 (Goldberg 1991, theorem 4).
+float rm_log1p(float x)
+{
+    float u = 1.0 + x;
+    if (u == 1.0)
+        return x;
+    return log(u) * x / (u - 1.0);
+}
+
+// max(0, x)^s with 0^0 = 0 below the cut-off (as reference._lobe).
+float rm_lobe(float x, float s)
+{
+    return (x > 0.0) ? pow(x, s) : 0.0;
+}
+
+// ---------------------------------------------------------------------------
+// Beta (D(beta) = D(0)/2) and native parameters.  Slide: "Microfacet
+// Distribution Functions".
+// ---------------------------------------------------------------------------
+
+// Erratum: -ln2 / ln cos(beta); written as 2 ln2 / log1p(tan^2 beta) for float32.
+float blinn_exponent_from_beta(float beta)
+{
+    float t = tan(beta);
+    return 2.0 * RM_LN2 / rm_log1p(t * t);
+}
+
+// Erratum: sqrt(ln 2)/beta, not sqrt(2)/beta.
+float gaussian_c2_from_beta(float beta)
+{
+    return sqrt(RM_LN2) / beta;
+}
+
+// c3^2 = (cos^2 - 1)/(cos^2 - sqrt2) = sin^2 / (sqrt2 - cos^2): no cancellation.
+float tr_alpha_from_beta(float beta)
+{
+    float s = sin(beta);
+    float c = cos(beta);
+    return sqrt(s * s / (M_SQRT2 - c * c));
+}
+
+// m = tan(beta) / sqrt(ln 2 - 4 ln cos beta), with -4 ln cos = 2 log1p(tan^2).
+float beckmann_m_from_beta(float beta)
+{
+    float t = tan(beta);
+    return t / sqrt(RM_LN2 + 2.0 * rm_log1p(t * t));
+}
+
+float gaussian_alpha_cut(float c2)
+{
+    return min(0.5 * RM_PI, sqrt(-RM_LOG_D_CUT) / c2);
+}
+
+float blinn_alpha_cut(float c)
+{
+    return acos(exp(RM_LOG_D_CUT / c));
+}
+
+// Normalisation of the Gaussian D: no closed form; the reference's 64-point
+// Gauss-Legendre rule over [0, cut].
+float gaussian_norm(float beta)
+{
+    float c2 = gaussian_c2_from_beta(beta);
+    float cut = gaussian_alpha_cut(c2);
+    float xs[RM_GL_NORM_N] = RM_GL_NORM_NODES;
+    float ws[RM_GL_NORM_N] = RM_GL_NORM_WEIGHTS;
+    float sum = 0.0;
+    for (int i = 0; i < RM_GL_NORM_N; i++) {
+        float a = cut * xs[i];
+        float e = c2 * a;
+        sum += ws[i] * exp(-e * e) * sin(a) * cos(a);
+    }
+    return 1.0 / (2.0 * RM_PI * cut * sum);
+}
+
+// ---------------------------------------------------------------------------
+// Distributions, normalised: int D cos(theta_h) dw_h = 1.
+// ---------------------------------------------------------------------------
+
+float rm_tan2(float hx, float hy, float hz)
+{
+    return (hx * hx + hy * hy) / (hz * hz);
+}
+
+float D_blinn(float hx, float hy, float hz, float beta)
+{
+    float c = blinn_exponent_from_beta(beta);
+    return (c + 2.0) / (2.0 * RM_PI) * exp(-0.5 * c * rm_log1p(rm_tan2(hx, hy, hz)));
+}
+
+float D_gaussian(float hx, float hy, float hz, float beta)
+{
+    float alpha = atan2(sqrt(hx * hx + hy * hy), hz);
+    float e = gaussian_c2_from_beta(beta) * alpha;
+    return gaussian_norm(beta) * exp(-e * e);
+}
+
+float D_trowbridge_reitz(float hx, float hy, float hz, float ax, float ay)
+{
+    float e = (hx / ax) * (hx / ax) + (hy / ay) * (hy / ay) + hz * hz;
+    return 1.0 / (RM_PI * ax * ay * e * e);
+}
+
+float D_beckmann(float hx, float hy, float hz, float ax, float ay)
+{
+    float hz2 = hz * hz;
+    float e = ((hx / ax) * (hx / ax) + (hy / ay) * (hy / ay)) / hz2;
+    return exp(-e) / (RM_PI * ax * ay * hz2 * hz2);
+}
+
+// ---------------------------------------------------------------------------
+// Smith Lambda.  Slide: "Self-Shadowing Function".
+// ---------------------------------------------------------------------------
+
+float Lambda_trowbridge_reitz(float wx, float wy, float wz, float ax, float ay)
+{
+    float a2t2 = ((wx * ax) * (wx * ax) + (wy * ay) * (wy * ay)) / (wz * wz);
+    return 0.5 * (sqrt(1.0 + a2t2) - 1.0);
+}
+
+float Lambda_beckmann(float wx, float wy, float wz, float ax, float ay)
+{
+    float r = sqrt((wx * ax) * (wx * ax) + (wy * ay) * (wy * ay));
+    if (r <= 0.0)
+        return 0.0;
+    float a = wz / r;
+    return max(0.5 * (exp(-a * a) / (a * RM_SQRT_PI) - erfc(a)), 0.0);
+}
+
+float S_smith_1967(float wx, float wy, float wz, float ax, float ay)
+{
+    float r = sqrt((wx * ax) * (wx * ax) + (wy * ay) * (wy * ay));
+    float bracket = (r > 0.0) ? 1.0 - 0.5 * erfc(wz / r) : 1.0;
+    return bracket / (1.0 + Lambda_beckmann(wx, wy, wz, ax, ay));
+}
+
+float rm_D_of_alpha(float alpha, float beta, int distribution)
+{
+    if (distribution == RM_DISTRIBUTION_BLINN) {
+        float c = blinn_exponent_from_beta(beta);
+        return (c + 2.0) / (2.0 * RM_PI) * pow(cos(alpha), c);
+    }
+    float e = gaussian_c2_from_beta(beta) * alpha;
+    return gaussian_norm(beta) * exp(-e * e);
+}
+
+// A-(theta) = cos(theta) Lambda: the reference's quadrature, node for node
+// (analytic azimuth, alpha = alpha0 + span s^2 (3 - 2s), Gauss-Legendre).
+float Aminus_quadrature(float cos_theta, float beta, int distribution)
+{
+    float ct = clamp(cos_theta, 0.0, 1.0);
+    float theta = acos(ct);
+    float alpha0 = 0.5 * RM_PI - theta;
+    float cut = (distribution == RM_DISTRIBUTION_BLINN)
+                    ? blinn_alpha_cut(blinn_exponent_from_beta(beta))
+                    : gaussian_alpha_cut(gaussian_c2_from_beta(beta));
+    float span = max(cut - alpha0, 0.0);
+    if (span <= 0.0)
+        return 0.0;
+    float xs[RM_GL_LAMBDA_N] = RM_GL_LAMBDA_NODES;
+    float ws[RM_GL_LAMBDA_N] = RM_GL_LAMBDA_WEIGHTS;
+    float sum = 0.0;
+    for (int i = 0; i < RM_GL_LAMBDA_N; i++) {
+        float s = xs[i];
+        float alpha = alpha0 + span * (s * s * (3.0 - 2.0 * s));
+        float jac = 6.0 * span * s * (1.0 - s);
+        float diff = max(-cos(theta + alpha) * cos(theta - alpha), 0.0);
+        float root = sqrt(diff);
+        float B = ct * cos(alpha);
+        float inner = 2.0 * (root - B * atan2(root, B));
+        sum += ws[i] * rm_D_of_alpha(alpha, beta, distribution) * sin(alpha) * inner * jac;
+    }
+    return sum;
+}
+
+// Lambda of Blinn or Gaussian by quadrature (the reference tabulates the same
+// quadrature in Lambda_table).
+float Lambda_quadrature(float wx, float wy, float wz, float beta, int distribution)
+{
+    if (wz <= 0.0)
+        return 1e30;
+    float len = sqrt(wx * wx + wy * wy + wz * wz);
+    return Aminus_quadrature(wz / len, beta, distribution) / (wz / len);
+}
+
+// V-groove: min(1, 2(N.H)(N.E)/(E.H), 2(N.H)(N.L)/(L.H)); E.H = L.H.
+float G_vgroove(float ci, float co, float ch, float cih)
+{
+    return min(1.0, 2.0 * ch * min(ci, co) / cih);
+}
+
+// ---------------------------------------------------------------------------
+// Fresnel (exact, unpolarised).
+// ---------------------------------------------------------------------------
+
+float F_dielectric(float c, float ior)
+{
+    float g2 = ior * ior - 1.0 + c * c;
+    if (g2 <= 0.0)
+        return 1.0;  // total internal reflection
+    float g = sqrt(g2);
+    float a = (g - c) / (g + c);
+    float b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * a * a * (1.0 + b * b);
+}
+
+float F_conductor(float c, float n, float k)
+{
+    float c2 = c * c;
+    float s2 = 1.0 - c2;
+    float t0 = n * n - k * k - s2;
+    float ab2 = sqrt(t0 * t0 + 4.0 * n * n * k * k);
+    float a = sqrt(max(0.5 * (ab2 + t0), 0.0));
+    float two_ac = 2.0 * a * c;
+    float rs = (ab2 - two_ac + c2) / (ab2 + two_ac + c2);
+    float pu = c2 * ab2 + s2 * s2;
+    float pv = two_ac * s2;
+    float rp = rs * (pu - pv) / (pu + pv);
+    return 0.5 * (rs + rp);
+}
+
+color F_dielectric(float c, color ior)
+{
+    return color(F_dielectric(c, ior[0]), F_dielectric(c, ior[1]), F_dielectric(c, ior[2]));
+}
+
+color F_conductor(float c, color n, color k)
+{
+    return color(F_conductor(c, n[0], k[0]), F_conductor(c, n[1], k[1]),
+                 F_conductor(c, n[2], k[2]));
+}
+
+// ---------------------------------------------------------------------------
+// Shading frame and light, shared by every model shader.
+// ---------------------------------------------------------------------------
+
+// Inputs every model shader has besides its parameters (names = catalogue
+// LIGHT_INPUTS and GEOMETRY_INPUTS; default_tangent comes from the group's
+// Tangent node).  Defaults are constants so unconnected sockets pass values.
+#define RM_LIGHT_GEOMETRY_PARAMS                                              \
+    float point_light = 0.0,                                                  \
+    vector light_direction = vector(0.0, 0.0, 1.0),                           \
+    point light_position = point(0.0, 0.0, 5.0),                              \
+    float light_strength = 1.0,                                               \
+    color light_color = color(1.0),                                           \
+    float shadows = 1.0,                                                      \
+    normal shading_normal = normal(0.0),                                      \
+    vector tangent = vector(0.0),                                             \
+    float tangent_rotation = 0.0,                                             \
+    vector default_tangent = vector(0.0)
+
+#define RM_LIGHT_GEOMETRY_ARGS                                                \
+    point_light, light_direction, light_position, light_strength, light_color, \
+    shadows, shading_normal, tangent, tangent_rotation, default_tangent
+
+// The local frame (t, b, n), the view (wo) and light (wi) directions, and the light's
+// irradiance E (colour; zero in shadow) at P.
+void rm_begin(float point_light, vector light_direction, point light_position,
+              float light_strength, color light_color, float shadows,
+              normal shading_normal, vector tangent, float tangent_rotation,
+              vector default_tangent,
+              output vector n, output vector t, output vector b, output vector wo,
+              output vector wi, output color E)
+{
+    n = (dot(shading_normal, shading_normal) > 0.0) ? normalize(shading_normal) : N;
+    wo = normalize(I);  // In Cycles OSL, I points toward the viewer.
+
+    vector tt = (dot(tangent, tangent) > 0.0) ? tangent : default_tangent;
+    tt = tt - dot(tt, n) * n;
+    if (dot(tt, tt) < 1e-12) {  // no tangent, or along the normal: any perpendicular
+        vector axis = (abs(n[0]) < 0.9) ? vector(1.0, 0.0, 0.0) : vector(0.0, 1.0, 0.0);
+        tt = axis - dot(axis, n) * n;
+    }
+    tt = normalize(tt);
+    float r = rm_clamp(tangent_rotation, RM_COMMON_TANGENT_ROTATION_MIN,
+                       RM_COMMON_TANGENT_ROTATION_MAX);
+    t = cos(r) * tt + sin(r) * cross(n, tt);
+    b = cross(n, t);
+
+    float strength = rm_clamp(light_strength, RM_COMMON_LIGHT_STRENGTH_MIN,
+                              RM_COMMON_LIGHT_STRENGTH_MAX);
+    float maxdist = 1e30;
+    if (rm_clamp(point_light, 0.0, 1.0) >= 0.5) {
+        vector d = light_position - P;
+        float d2 = max(dot(d, d), 1e-12);
+        maxdist = sqrt(d2);
+        wi = d / maxdist;
+        strength /= d2;
+    }
+    else {
+        wi = (dot(light_direction, light_direction) > 0.0) ? normalize(light_direction)
+                                                           : vector(0.0, 0.0, 1.0);
+    }
+    float visible = 1.0;
+    float sh = rm_clamp(shadows, RM_COMMON_SHADOWS_MIN, RM_COMMON_SHADOWS_MAX);
+    if (sh > 0.0 && trace(P, wi, "mindist", 1e-5, "maxdist", maxdist))
+        visible = 1.0 - sh;
+    E = strength * visible * rm_clamp(light_color, RM_COMMON_LIGHT_COLOR_MIN,
+                                      RM_COMMON_LIGHT_COLOR_MAX);
+}
+
+vector rm_local(vector w, vector t, vector b, vector n)
+{
+    return vector(dot(w, t), dot(w, b), dot(w, n));
+}
+
+// Cycles' closure distribution names: only these two exist; any other string
+// silently renders GGX, so the shaders never build one from user input.
+string rm_closure_distribution(int distribution)
+{
+    return (distribution == RM_DISTRIBUTION_TROWBRIDGE_REITZ) ? "ggx" : "beckmann";
+}
+
+#endif  // RM_COMMON_H
