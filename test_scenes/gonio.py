@@ -26,6 +26,11 @@ H = normalize(L + E) is the same over the whole image: a Fresnel term is
 measured at one angle per render.  :func:`light_for_half_angle` picks the
 light for a given ``theta_d``; sweep it to cover the Fresnel curve.
 
+Cost (2 cores, 25 tiles, 1 sample; the render call): 64x64 in 7-14 ms and
+256x256 in 56-83 ms with a native BSDF, 74 ms and 102 ms through an OSL
+Script node; building the scene takes 16 ms and 100 ms.  Agreement with
+formulas is float32 rounding: 1e-6 to 2e-5 relative (docs/cycles-closures.md).
+
 Typical use::
 
     g = build_gonio_scene(material, light_dir=(0.3, 0.2, 0.93), resolution=128)
