@@ -1,0 +1,59 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Static checks of the OSL sources (no bpy): generated header up to date,
+function names mirrored from the reference, one shader per catalogue model,
+and no closure fed a distribution string Cycles would silently turn into GGX."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+from addon import catalogue, reference
+from tools import gen_osl
+
+OSL = Path(__file__).resolve().parent.parent / "osl"
+COMMON = (OSL / "rm_common.h").read_text()
+
+# Formulas the OSL header must mirror by name (same argument order by review).
+MIRRORED = [name for name in reference.__all__
+            if name.split("_")[0] in ("D", "Lambda", "F", "G", "S")
+            or name.endswith("_from_beta") or name in ("gaussian_norm", "Aminus_quadrature")]
+# The reference tabulates the quadrature that OSL evaluates directly.
+RENAMED = {"Lambda_table": "Lambda_quadrature"}
+
+
+def test_generated_header_is_up_to_date():
+    assert (OSL / "rm_generated.h").read_text() == gen_osl.render(), \
+        "run: python -m tools.gen_osl"
+
+
+@pytest.mark.parametrize("name", MIRRORED)
+def test_reference_formula_has_an_osl_twin(name):
+    osl_name = RENAMED.get(name, name)
+    assert re.search(rf"\b(float|color)\s+{osl_name}\s*\(", COMMON), osl_name
+
+
+@pytest.mark.parametrize("model", sorted(catalogue.MODELS))
+def test_every_model_has_a_shader_with_its_parameters(model):
+    m = catalogue.MODELS[model]
+    src = (OSL / m.shader).read_text()
+    assert re.search(rf"\bshader\s+{Path(m.shader).stem}\s*\(", src)
+    for p in m.params:
+        kind = "int" if p.is_enum else "color" if p.kind == "color" else "float"
+        assert re.search(rf"\b{kind}\s+{p.name}\s*=", src), (model, p.name)
+    for out in catalogue.MAIN_OUTPUTS:
+        assert re.search(rf"output\s+(closure\s+)?color\s+{out}\b", src), (model, out)
+
+
+def test_closures_only_get_known_distribution_strings():
+    """Cycles renders any unknown distribution string as GGX, silently."""
+    known = {"ggx", "beckmann"}
+    for path in OSL.glob("*.osl"):
+        src = path.read_text()
+        for call in re.finditer(r"\b(microfacet|conductor_bsdf|dielectric_bsdf)\s*\(([^;]*)", src):
+            for literal in re.findall(r'"([^"]*)"', call.group(2)):
+                assert literal in known, (path.name, literal)
+    # the shared mapping from the enum code returns only known names
+    body = COMMON[COMMON.index("string rm_closure_distribution"):]
+    body = body[:body.index("}")]
+    assert set(re.findall(r'"([^"]*)"', body)) <= known
