@@ -57,3 +57,11 @@ def test_closures_only_get_known_distribution_strings():
     body = COMMON[COMMON.index("string rm_closure_distribution"):]
     body = body[:body.index("}")]
     assert set(re.findall(r'"([^"]*)"', body)) <= known
+
+
+def test_readme_model_table_is_generated_from_the_catalogue():
+    from tools import gen_docs
+    text = gen_docs.README.read_text()
+    assert gen_docs.render(text) == text, "run: python -m tools.gen_docs"
+    for model in catalogue.MODELS:
+        assert f"`{model}`" in text
