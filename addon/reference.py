@@ -541,13 +541,22 @@ def _dot(a, b):
 
 
 def _frame(normal, tangent):
-    """Rows (t, b, n): the tangent projected on the surface, n x t, the normal."""
+    """Rows (t, b, n): the tangent projected on the surface, n x t, the normal.
+
+    A tangent along the normal (or zero) falls back to the x axis projected on
+    the surface, or the y axis when the normal is near x: the same choice as
+    ``rm_begin`` in ``osl/rm_common.h``.
+    """
     n = _vec(normal, "normal")
     t = _vec(tangent, "tangent")
     t = t - _dot(t, n)[..., None] * n
     length = np.sqrt(_dot(t, t))
-    if np.any(length < 1e-12):
-        raise ValueError("tangent must not be parallel to the normal")
+    bad = length < 1e-6
+    if np.any(bad):
+        axis = np.where((np.abs(n[..., 0]) < 0.9)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+        fallback = axis - _dot(axis, n)[..., None] * n
+        t = np.where(bad[..., None], fallback, t)
+        length = np.sqrt(_dot(t, t))
     t = t / length[..., None]
     b = np.cross(n, t)
     return np.stack(np.broadcast_arrays(t, b, n), axis=-2)

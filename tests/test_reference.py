@@ -491,3 +491,18 @@ def test_no_nan_for_degenerate_directions():
     for model, params in surface_cases():
         out = R.shade(model, w[:, None, :], w[None, :, :], **params)
         assert np.all(np.isfinite(out)), model
+
+
+def test_tangent_along_the_normal_falls_back_like_the_shader():
+    """Isotropic models ignore the tangent, so a tangent parallel to a per-pixel
+    normal must not fail; the fallback matches osl/rm_common.h (x axis, or y
+    when the normal is near x)."""
+    n = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    wi = np.array([[0.8, 0.6, 0.0], [0.0, 0.6, 0.8]])
+    wo = np.array([[0.8, -0.6, 0.0], [0.0, -0.6, 0.8]])
+    iso = R.shade("microfacet", wi, wo, normal=n, tangent=(1.0, 0.0, 0.0), distribution="beckmann")
+    np.testing.assert_allclose(iso[0], iso[1], rtol=1e-12)  # same geometry, rotated
+    aniso = dict(distribution="beckmann", alpha_x=0.1, alpha_y=0.4)
+    a = R.shade("microfacet", wi[:1], wo[:1], normal=n[:1], tangent=(1.0, 0.0, 0.0), **aniso)
+    b = R.shade("microfacet", wi[:1], wo[:1], normal=n[:1], tangent=(0.0, 1.0, 0.0), **aniso)
+    np.testing.assert_allclose(a, b, rtol=1e-12)
