@@ -1,10 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Registration of every Blender class, menu and handler of the extension.
 
-Kept apart from ``__init__`` so that importing the package never imports bpy.
+Kept apart from ``__init__`` so that importing the package never imports bpy:
+``__init__.register`` imports this module only when Blender enables the
+extension.
 """
 
-_MODULES = ()  # modules exposing register()/unregister(), in order
+from . import ui
+
+_MODULES = (ui,)  # modules exposing register()/unregister(), in order
 
 
 def register():

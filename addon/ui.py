@@ -1,0 +1,459 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Shader Editor user interface: the Add menu entries, the sidebar panel,
+their operators, and the load/render handlers that warn when a scene using
+the node groups cannot run OSL.
+
+Every class is registered from :data:`CLASSES` (plus the generated variant
+menus), and :func:`unregister` removes exactly what :func:`register` added.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import bpy
+from bpy.app.handlers import persistent
+from bpy.props import BoolProperty, EnumProperty, StringProperty
+
+from . import api, catalogue, nodes
+
+log = logging.getLogger(__name__)
+
+OSL_OFF_WARNING = ("Reflection Models: this scene uses OSL script nodes but Open Shading "
+                   "Language is off; Cycles will render them black")
+
+
+def _in_shader_editor(context) -> bool:
+    space = context.space_data
+    return (space is not None and space.type == 'NODE_EDITOR'
+            and space.tree_type == 'ShaderNodeTree')
+
+
+def _active_rm_node(context):
+    node = getattr(context, "active_node", None)
+    return node if nodes.is_rm_node(node) else None
+
+
+# ---------------------------------------------------------------------------
+# Operators
+
+class NODE_OT_rm_add_model(bpy.types.Operator):
+    bl_idname = "node.rm_add_model"
+    bl_label = "Add Reflection Model"
+    bl_description = "Add a Reflection Models node group to the shader tree"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    model: StringProperty(name="Model", description="Model or preset id of the catalogue",
+                          options={'HIDDEN'})
+    distribution: StringProperty(name="Distribution", default="",
+                                 description="Microfacet distribution (empty: the default)",
+                                 options={'HIDDEN'})
+    use_transform: BoolProperty(name="Use Transform", default=False,
+                                description="Start moving the node after adding it",
+                                options={'HIDDEN', 'SKIP_SAVE'})
+
+    @classmethod
+    def description(cls, _context, properties):
+        name = properties.model
+        if name in catalogue.PRESETS:
+            return catalogue.PRESETS[name].description
+        if name in catalogue.MODELS:
+            text = catalogue.MODELS[name].description
+            if properties.distribution:
+                text += f" (distribution: {nodes.choice_label(properties.distribution)})"
+            return text
+        return cls.bl_description
+
+    @classmethod
+    def poll(cls, context):
+        space = context.space_data
+        return (_in_shader_editor(context) and space.edit_tree is not None
+                and space.edit_tree.is_editable)
+
+    def execute(self, context):
+        space = context.space_data
+        tree = space.edit_tree
+        enums = {"distribution": self.distribution} if self.distribution else {}
+        try:
+            group = nodes.ensure_group(self.model, **enums)
+        except (ValueError, RuntimeError, OSError) as exc:
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
+        for other in tree.nodes:
+            other.select = False
+        node = tree.nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        if self.model in catalogue.PRESETS:
+            node.label = catalogue.PRESETS[self.model].label
+        node.location = space.cursor_location
+        node.select = True
+        tree.nodes.active = node
+        return {'FINISHED'}
+
+    def invoke(self, context, event):
+        space = context.space_data
+        if context.region is not None and context.region.type == 'WINDOW':
+            space.cursor_location_from_region(event.mouse_region_x, event.mouse_region_y)
+        else:
+            space.cursor_location = space.edit_tree.view_center
+        result = self.execute(context)
+        if self.use_transform and 'FINISHED' in result:
+            bpy.ops.node.translate_attach_remove_on_cancel('INVOKE_DEFAULT')
+        return result
+
+
+class NODE_OT_rm_enable_osl(bpy.types.Operator):
+    bl_idname = "node.rm_enable_osl"
+    bl_label = "Enable OSL"
+    bl_description = ("Set the scene to render with Cycles on the CPU with Open Shading "
+                      "Language on, which the Reflection Models nodes need")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        api.enable_osl(context.scene)
+        return {'FINISHED'}
+
+
+class NODE_OT_rm_switch_variant(bpy.types.Operator):
+    bl_idname = "node.rm_switch_variant"
+    bl_label = "Switch Variant"
+    bl_description = ("Give the active Reflection Models node another variant of its "
+                      "model, keeping its socket values and links")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    param: StringProperty(name="Parameter", options={'HIDDEN'})
+    value: StringProperty(name="Value", options={'HIDDEN'})
+
+    @classmethod
+    def poll(cls, context):
+        return _active_rm_node(context) is not None
+
+    def execute(self, context):
+        node = _active_rm_node(context)
+        try:
+            _tree, reset = nodes.switch_variant(node, **{self.param: self.value})
+        except (ValueError, RuntimeError, OSError) as exc:
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
+        if reset:
+            self.report({'INFO'}, "Reset to the default (not allowed with "
+                        f"{self.value}): {', '.join(reset)}")
+        return {'FINISHED'}
+
+
+_LIGHT_ITEMS = []  # Blender needs the strings of dynamic enum items kept alive
+
+
+def _light_items(_self, context):
+    _LIGHT_ITEMS.clear()
+    scene = getattr(context, "scene", None)
+    objects = scene.objects if scene is not None else bpy.data.objects
+    for obj in sorted(objects, key=lambda o: o.name):
+        if obj.type == 'LIGHT' and obj.data.type in api.SUPPORTED_LIGHTS:
+            _LIGHT_ITEMS.append((obj.name, obj.name, f"{obj.data.type.title()} light",
+                                 'LIGHT_SUN' if obj.data.type == 'SUN' else 'LIGHT_POINT',
+                                 len(_LIGHT_ITEMS)))
+    if not _LIGHT_ITEMS:
+        _LIGHT_ITEMS.append(("", "No sun or point light", "The scene has no sun or point "
+                             "light", 'ERROR', 0))
+    return _LIGHT_ITEMS
+
+
+class NODE_OT_rm_bind_light(bpy.types.Operator):
+    bl_idname = "node.rm_bind_light"
+    bl_label = "Bind Light"
+    bl_description = ("Drive the Light inputs of the active Reflection Models node from a "
+                      "sun or point light (exact mode follows the lamp)")
+    bl_options = {'REGISTER', 'UNDO'}
+    bl_property = "light"
+
+    light: EnumProperty(name="Light", description="Sun or point light to follow",
+                        items=_light_items)
+
+    @classmethod
+    def poll(cls, context):
+        return _active_rm_node(context) is not None
+
+    def execute(self, context):
+        obj = bpy.data.objects.get(self.light)
+        if obj is None:
+            self.report({'ERROR'}, "Choose a sun or point light")
+            return {'CANCELLED'}
+        try:
+            api.bind_light(_active_rm_node(context), obj)
+        except ValueError as exc:
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
+        return {'FINISHED'}
+
+    def invoke(self, context, event):
+        obj = context.active_object
+        if obj is not None and obj.type == 'LIGHT' and obj.data.type in api.SUPPORTED_LIGHTS:
+            self.light = obj.name
+            return self.execute(context)
+        context.window_manager.invoke_search_popup(self)
+        return {'RUNNING_MODAL'}
+
+
+class NODE_OT_rm_unbind_light(bpy.types.Operator):
+    bl_idname = "node.rm_unbind_light"
+    bl_label = "Unbind Light"
+    bl_description = "Remove the drivers that make the active node's Light inputs follow a lamp"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        node = _active_rm_node(context)
+        return node is not None and bool(api.light_drivers(node))
+
+    def execute(self, context):
+        api.unbind_light(_active_rm_node(context))
+        return {'FINISHED'}
+
+
+class NODE_OT_rm_upgrade_groups(bpy.types.Operator):
+    bl_idname = "node.rm_upgrade_groups"
+    bl_label = "Upgrade Groups"
+    bl_description = ("Rebuild the Reflection Models node groups made by an older version "
+                      "of the extension, keeping the nodes' values and links")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, _context):
+        return bool(nodes.find_outdated_groups())
+
+    def execute(self, _context):
+        groups = nodes.find_outdated_groups()
+        for tree in groups:
+            try:
+                nodes.upgrade_group(tree)
+            except (ValueError, RuntimeError, OSError) as exc:
+                self.report({'ERROR'}, f"{tree.name}: {exc}")
+                return {'CANCELLED'}
+        self.report({'INFO'}, f"Upgraded {len(groups)} node group(s)")
+        return {'FINISHED'}
+
+
+# ---------------------------------------------------------------------------
+# Add menu
+
+class NODE_MT_rm_add(bpy.types.Menu):
+    bl_idname = "NODE_MT_rm_add"
+    bl_label = "Reflection Models"
+    bl_description = "Classic reflection models as OSL shader node groups"
+
+    def draw(self, _context):
+        layout = self.layout
+        for model in catalogue.MODELS.values():
+            if any(p.name == "distribution" for p in model.params):
+                layout.menu(NODE_MT_rm_add_microfacet.bl_idname, text=model.label)
+            else:
+                _add_operator(layout, model.id, model.label)
+        layout.separator()
+        for preset in catalogue.PRESETS.values():
+            _add_operator(layout, preset.id, preset.label)
+
+
+class NODE_MT_rm_add_microfacet(bpy.types.Menu):
+    bl_idname = "NODE_MT_rm_add_microfacet"
+    bl_label = "Microfacet"
+    bl_description = catalogue.MODELS["microfacet"].description
+
+    def draw(self, _context):
+        layout = self.layout
+        param = catalogue.MODELS["microfacet"].param("distribution")
+        for choice in param.choices:
+            _add_operator(layout, "microfacet", nodes.choice_label(choice), distribution=choice)
+
+
+def _add_operator(layout, model_id, text, **props):
+    op = layout.operator(NODE_OT_rm_add_model.bl_idname, text=text)
+    op.model = model_id
+    for key, value in props.items():
+        setattr(op, key, value)
+    op.use_transform = True
+    return op
+
+
+def _draw_add_menu(self, context):
+    if _in_shader_editor(context):
+        self.layout.menu(NODE_MT_rm_add.bl_idname, icon='NODE_MATERIAL')
+
+
+# ---------------------------------------------------------------------------
+# Sidebar panel
+
+def _variant_menu_id(param_name: str) -> str:
+    return f"NODE_MT_rm_variant_{param_name}"
+
+
+def _make_variant_menu(param_name: str):
+    def draw(self, context):
+        node = _active_rm_node(context)
+        if node is None:
+            return
+        model_id, variant = nodes.rm_info(node.node_tree)
+        param = next((p for p in nodes.variant_params(model_id) if p.name == param_name), None)
+        for choice in (param.choices if param else ()):
+            op = self.layout.operator(NODE_OT_rm_switch_variant.bl_idname,
+                                      text=nodes.choice_label(choice),
+                                      icon='CHECKMARK' if variant.get(param_name) == choice
+                                      else 'BLANK1')
+            op.param = param_name
+            op.value = choice
+
+    return type(_variant_menu_id(param_name), (bpy.types.Menu,), {
+        "bl_idname": _variant_menu_id(param_name),
+        "bl_label": param_name.replace("_", " ").title(),
+        "draw": draw,
+    })
+
+
+def _variant_param_names() -> list:
+    names = []
+    for model_id in catalogue.MODELS:
+        for p in nodes.variant_params(model_id):
+            if p.name not in names:
+                names.append(p.name)
+    return names
+
+
+class NODE_PT_rm_sidebar(bpy.types.Panel):
+    bl_idname = "NODE_PT_rm_sidebar"
+    bl_space_type = 'NODE_EDITOR'
+    bl_region_type = 'UI'
+    bl_category = "Reflection Models"
+    bl_label = "Reflection Models"
+
+    @classmethod
+    def poll(cls, context):
+        return _in_shader_editor(context)
+
+    def draw(self, context):
+        layout = self.layout
+        _draw_osl(layout, context.scene)
+        outdated = nodes.find_outdated_groups()
+        if outdated:
+            box = layout.box()
+            box.label(text=f"{len(outdated)} group(s) from an older version", icon='INFO')
+            box.operator(NODE_OT_rm_upgrade_groups.bl_idname, icon='FILE_REFRESH')
+        node = _active_rm_node(context)
+        if node is None:
+            layout.label(text="Select a Reflection Models node")
+            return
+        _draw_node(layout, context, node)
+
+
+def _draw_osl(layout, scene):
+    box = layout.box()
+    problems, warnings = api.osl_status(scene)
+    if problems:
+        col = box.column(align=True)
+        col.label(text="The scene cannot run the OSL nodes:", icon='ERROR')
+        for text in problems:
+            col.label(text=text)
+        box.operator(NODE_OT_rm_enable_osl.bl_idname, icon='CHECKMARK')
+    else:
+        box.label(text="OSL: ready (Cycles, CPU)", icon='CHECKMARK')
+    for text in warnings:
+        box.label(text=text, icon='INFO')
+
+
+def _draw_node(layout, context, node):
+    model_id, variant = nodes.rm_info(node.node_tree)
+    model = catalogue.MODELS[model_id]
+    box = layout.box()
+    box.label(text=model.label, icon='NODE_MATERIAL')
+    for p in nodes.variant_params(model_id):
+        row = box.row()
+        split = row.split(factor=0.4)
+        split.label(text=p.label)
+        split.menu(_variant_menu_id(p.name), text=nodes.choice_label(variant[p.name]))
+    box = layout.box()
+    bound = api.bound_light(node)
+    box.label(text=f"Light: {bound.name}" if bound else "Light: the Light inputs",
+              icon='LIGHT')
+    obj = context.active_object
+    row = box.row(align=True)
+    if obj is not None and obj.type == 'LIGHT' and obj.data.type in api.SUPPORTED_LIGHTS:
+        row.operator(NODE_OT_rm_bind_light.bl_idname,
+                     text=f"Bind {obj.name}").light = obj.name
+    row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind Light")
+    if bound is not None:
+        box.operator(NODE_OT_rm_unbind_light.bl_idname, icon='X')
+
+
+# ---------------------------------------------------------------------------
+# Handlers
+
+def check_scene(scene) -> str | None:
+    """The warning for ``scene`` if it uses RM groups it cannot render, else None."""
+    if not nodes.scene_uses_rm_groups(scene):
+        return None
+    problems, _warnings = api.osl_status(scene)
+    if not problems:
+        return None
+    if "Open Shading Language is off" in problems and scene.render.engine == 'CYCLES':
+        message = OSL_OFF_WARNING
+        others = [p for p in problems if p != "Open Shading Language is off"]
+    else:
+        message = ("Reflection Models: this scene uses OSL script nodes but cannot run "
+                   "them; they will render black")
+        others = problems
+    if others:
+        message += " (also: " + "; ".join(others) + ")"
+    return f"{message} [scene {scene.name!r}]"
+
+
+@persistent
+def on_load_post(*_args):
+    for scene in bpy.data.scenes:
+        message = check_scene(scene)
+        if message:
+            log.warning(message)
+
+
+@persistent
+def on_render_init(scene, *_args):
+    message = check_scene(scene)
+    if message:
+        log.warning(message)
+
+
+HANDLERS = (("load_post", on_load_post), ("render_init", on_render_init))
+
+CLASSES = (
+    NODE_OT_rm_add_model,
+    NODE_OT_rm_enable_osl,
+    NODE_OT_rm_switch_variant,
+    NODE_OT_rm_bind_light,
+    NODE_OT_rm_unbind_light,
+    NODE_OT_rm_upgrade_groups,
+    NODE_MT_rm_add,
+    NODE_MT_rm_add_microfacet,
+    NODE_PT_rm_sidebar,
+)
+
+_registered = []
+
+
+def register():
+    variant_menus = [_make_variant_menu(name) for name in _variant_param_names()]
+    for cls in CLASSES + tuple(variant_menus):
+        bpy.utils.register_class(cls)
+        _registered.append(cls)
+    bpy.types.NODE_MT_shader_node_add_all.append(_draw_add_menu)
+    for name, func in HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if func not in handlers:
+            handlers.append(func)
+
+
+def unregister():
+    for name, func in HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        while func in handlers:
+            handlers.remove(func)
+    bpy.types.NODE_MT_shader_node_add_all.remove(_draw_add_menu)
+    while _registered:
+        bpy.utils.unregister_class(_registered.pop())
