@@ -1,0 +1,594 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Node groups built from the catalogue (``addon.nodes``) and the Shader
+Editor interface of the installed extension (``ui``): sockets, variants,
+upgrade, the Add menu, the sidebar panel, handlers and unregistration.
+
+Parametrised over ``catalogue.MODELS``: a model whose shader is not in
+``osl/`` yet is skipped, so new shaders are picked up automatically.
+"""
+
+import importlib
+import logging
+import math
+import re
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from addon import catalogue
+from tools import bpy_env
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+OSL_DIR = REPO_ROOT / "osl"
+F32 = dict(rel=1e-6, abs=1e-7)  # interface values are stored as float32
+
+
+def needs_shader(model_id):
+    model, _fixed, _defaults = catalogue.resolve(model_id)
+    if not (OSL_DIR / model.shader).is_file():
+        pytest.skip(f"osl/{model.shader} is not written yet")
+
+
+@pytest.fixture
+def nodes(bpy):
+    bpy_env.reset_scene()
+    from addon import nodes as module
+    return module
+
+
+def interface_sockets(tree, in_out):
+    return [item for item in tree.interface.items_tree
+            if item.item_type == "SOCKET" and item.in_out == in_out]
+
+
+def new_material(bpy, name="M"):
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True  # Blender < 5.0
+    return mat
+
+
+def add_group_node(mat, tree):
+    node = mat.node_tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = tree
+    return node
+
+
+# ---------------------------------------------------------------------------
+# Variants and names (no shader needed)
+
+def test_group_names_follow_the_variant(nodes):
+    assert nodes.group_name("lambert") == "RM Lambert"
+    assert nodes.group_name("phong") == "RM Phong (None)"
+    assert nodes.group_name("blinn_phong", {"normalization": "energy"}) == "RM Blinn-Phong (Energy)"
+    assert nodes.group_name("microfacet") == "RM Microfacet (Beckmann, Smith, None)"
+    assert nodes.group_name("microfacet", {"fresnel": "conductor"}) == \
+        "RM Microfacet (Beckmann, Smith, Conductor)"
+    assert nodes.group_name("microfacet", {"distribution": "trowbridge_reitz",
+                                           "width_mode": "alpha_xy"}) == \
+        "RM Microfacet (GGX, Smith, None, Alpha XY)"
+
+
+def test_every_group_name_is_unique_and_fits_an_id_name(nodes):
+    """Blender 4.5 cuts ID names at 63 characters: a cut name would not be
+    found again and the group would be rebuilt on every use."""
+    import itertools
+    names = set()
+    for model_id in catalogue.MODELS:
+        params = nodes.variant_params(model_id)
+        for values in itertools.product(*(p.choices for p in params)):
+            enums = dict(zip((p.name for p in params), values))
+            try:
+                name = nodes.group_name(model_id, enums)
+            except ValueError:
+                continue  # a forbidden combination
+            assert len(name) <= nodes.MAX_NAME, name
+            assert name not in names
+            names.add(name)
+    assert len(names) > 100
+
+
+def test_presets_map_to_their_base_model_variant(nodes):
+    for preset in catalogue.PRESETS.values():
+        enums = {**preset.fixed, **preset.defaults}
+        assert nodes.variant_key(preset.id) == nodes.variant_key(preset.base, enums)
+        assert nodes.group_name(preset.id) == nodes.group_name(preset.base, enums)
+    assert nodes.group_name("cook_torrance") == "RM Microfacet (Beckmann, V-Groove, Dielectric)"
+    with pytest.raises(ValueError, match="fixed"):
+        nodes.variant_key("cook_torrance", {"distribution": "gaussian"})
+
+
+@pytest.mark.parametrize("model_id, enums, match", [
+    ("nope", {}, "allowed: lambert"),
+    ("phong", {"normalization": "bogus"}, "one of 'none', 'energy'"),
+    ("phong", {"exponent": 3.0}, "not a structural parameter"),
+    ("microfacet", {"width_mode": "alpha", "distribution": "blinn"}, "native widths"),
+    ("microfacet", {"width_mode": "bogus"}, "'beta', 'alpha', 'alpha_xy'"),
+    ("microfacet", {"shadowing": "smith_1967", "distribution": "gaussian"}, "beckmann"),
+])
+def test_bad_variants_raise_value_errors_naming_what_is_allowed(nodes, model_id, enums, match):
+    with pytest.raises(ValueError, match=match):
+        nodes.variant_key(model_id, enums)
+
+
+def test_width_modes_choose_the_width_sockets(nodes):
+    def names(**enums):
+        return [p.name for p in nodes.socket_params("microfacet", enums)]
+
+    assert "beta" in names() and not {"alpha", "alpha_x", "alpha_y"} & set(names())
+    assert "alpha" in names(width_mode="alpha") and "beta" not in names(width_mode="alpha")
+    assert {"alpha_x", "alpha_y"} <= set(names(width_mode="alpha_xy"))
+    assert not {"beta", "alpha"} & set(names(width_mode="alpha_xy"))
+    # the tangent inputs appear only where the variant depends on a tangent
+    assert not nodes.uses_tangent("microfacet")
+    assert nodes.uses_tangent("microfacet", {"width_mode": "alpha_xy"})
+    assert nodes.uses_tangent("ward") and nodes.uses_tangent("kajiya_kay")
+    assert not nodes.uses_tangent("lambert")
+
+
+def test_output_labels(nodes):
+    assert nodes.output_label("cos_theta_i") == "Cos Theta I"
+    for name in ("BSDF", "Direct", "Color", "D", "G", "F", "Lobe"):
+        assert nodes.output_label(name) == name
+
+
+def test_enum_codes_match_the_generated_osl_header(nodes):
+    """The ints set on the Script nodes are the codes the shaders compare with."""
+    header = (OSL_DIR / "rm_generated.h").read_text()
+    codes = dict(re.findall(r"#define (RM_[A-Z0-9_]+) (-?\d+)\s*$", header, re.M))
+    for model_id in catalogue.MODELS:
+        for p in nodes.variant_params(model_id):
+            prefix = "RM_WIDTH" if p is nodes.WIDTH_PARAM else f"RM_{p.name.upper()}"
+            for i, choice in enumerate(p.choices):
+                key = f"{prefix}_{choice.upper()}"
+                assert int(codes[key]) == i, key
+
+
+# ---------------------------------------------------------------------------
+# Building groups
+
+@pytest.mark.parametrize("model_id", list(catalogue.MODELS))
+def test_every_default_group_matches_the_catalogue(nodes, model_id):
+    needs_shader(model_id)
+    tree = nodes.ensure_group(model_id)
+    model = catalogue.MODELS[model_id]
+    assert tree.name == nodes.group_name(model_id)
+    assert tree["rm_model"] == model_id and tree["rm_version"] == nodes.NODES_VERSION
+    _model, variant = nodes.resolve_variant(model_id)
+    assert tree["rm_variant"].to_dict() == variant
+
+    params = nodes.input_params(model_id)
+    inputs = interface_sockets(tree, "INPUT")
+    assert [s.name for s in inputs] == [p.label for p in params]
+    for item, p in zip(inputs, params):
+        assert item.description == p.description and item.description.strip()
+        assert (item.parent.name if item.parent else "") in ("", p.panel)
+        if p.panel:
+            assert item.parent.name == p.panel
+        expected_subtype = {"angle": "ANGLE", "factor": "FACTOR", "direction": "DIRECTION",
+                            "position": "TRANSLATION"}.get(p.kind)
+        if p.kind == "color":
+            assert item.socket_type == "NodeSocketColor"
+            rgb = (p.default,) * 3 if isinstance(p.default, float) else p.default
+            assert tuple(item.default_value)[:3] == pytest.approx(rgb, **F32)
+            continue
+        if expected_subtype:
+            assert item.subtype == expected_subtype, p.name
+        elif p.kind == "float":
+            assert item.subtype == "NONE", p.name
+        if p.kind == "normal":
+            assert item.hide_value, p.name
+        if p.minimum is not None:
+            assert item.min_value == pytest.approx(p.minimum, **F32), p.name
+            assert item.max_value == pytest.approx(p.maximum, **F32), p.name
+        default = item.default_value
+        if hasattr(default, "__len__"):
+            assert tuple(default) == pytest.approx(p.default, **F32)
+        else:
+            assert default == pytest.approx(p.default, **F32)
+
+    # outputs: BSDF, Direct, Color, then every term of the shader, all linked
+    script = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeScript")
+    outputs = interface_sockets(tree, "OUTPUT")
+    assert [s.name for s in outputs[:3]] == list(catalogue.MAIN_OUTPUTS)
+    assert [s.socket_type for s in outputs[:3]] == ["NodeSocketShader", "NodeSocketShader",
+                                                     "NodeSocketColor"]
+    assert [s.name for s in outputs] == [nodes.output_label(o.name) for o in script.outputs]
+    assert all(s.description.strip() for s in outputs)
+    group_out = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
+    for out in script.outputs:
+        assert [link.to_node for link in out.links] == [group_out], out.name
+
+    # inside: every group input feeds the script input of the same parameter
+    group_in = next(n for n in tree.nodes if n.bl_idname == "NodeGroupInput")
+    for item, p in zip(inputs, params):
+        (link,) = script.inputs[p.name].links
+        assert link.from_node == group_in and link.from_socket.identifier == item.identifier
+    tangent = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTangent")
+    assert tangent.direction_type == "UV_MAP"
+    assert script.inputs["default_tangent"].links[0].from_node == tangent
+    for p in nodes.variant_params(model_id):
+        assert script.inputs[p.name].default_value == p.choices.index(variant[p.name])
+        assert not script.inputs[p.name].is_linked
+    assert script.bytecode
+
+
+def test_angles_and_factors_show_their_units_on_the_node(nodes, bpy):
+    needs_shader("lambert")
+    tree = nodes.ensure_group("lambert")
+    node = add_group_node(new_material(bpy), tree)
+    kinds = {p.name: p.kind for p in catalogue.LIGHT_INPUTS + catalogue.GEOMETRY_INPUTS}
+    for socket in node.inputs:
+        kind = kinds.get(nodes.socket_key(node, socket)[3:])
+        if kind == "factor":
+            assert socket.bl_idname == "NodeSocketFloatFactor"
+        elif kind == "direction":
+            assert socket.bl_idname == "NodeSocketVectorDirection"
+
+
+def test_half_angle_socket_is_an_angle(nodes):
+    needs_shader("microfacet")
+    tree = nodes.ensure_group("microfacet")
+    (item,) = [s for s in interface_sockets(tree, "INPUT") if s.name == "Half-Angle"]
+    assert item.subtype == "ANGLE"
+    assert item.max_value == pytest.approx(85 * math.pi / 180, **F32)
+
+
+def test_rebuilding_does_not_duplicate(nodes, bpy):
+    needs_shader("phong")
+    first = nodes.ensure_group("phong")
+    counts = (len(bpy.data.node_groups), len(bpy.data.texts))
+    assert nodes.ensure_group("phong", normalization="none") == first
+    assert (len(bpy.data.node_groups), len(bpy.data.texts)) == counts
+    energy = nodes.ensure_group("phong", normalization="energy")
+    assert energy != first and energy.name == "RM Phong (Energy)"
+    assert len(bpy.data.node_groups) == counts[0] + 1
+    assert len(bpy.data.texts) == counts[1]  # one text per shader, shared by variants
+
+
+def test_a_foreign_group_with_the_same_name_is_not_taken(nodes, bpy):
+    needs_shader("lambert")
+    foreign = bpy.data.node_groups.new("RM Lambert", "ShaderNodeTree")
+    tree = nodes.ensure_group("lambert")
+    assert tree != foreign and tree["rm_model"] == "lambert"
+    assert "rm_model" not in foreign
+
+
+# ---------------------------------------------------------------------------
+# Keeping a user's values, links and drivers
+
+def _user_setup(bpy, nodes, tree, value_param, value):
+    """A material using ``tree``: one input set by hand, one linked from a
+    Value node, a driver on Light Strength, the BSDF wired to the output."""
+    mat = new_material(bpy)
+    node = add_group_node(mat, tree)
+    node.name = "RMNode"
+    nt = mat.node_tree
+    socket = nodes.input_socket(node, value_param)
+    socket.default_value = (*value, 1.0) if isinstance(value, tuple) else value
+    source = nt.nodes.new("ShaderNodeValue")
+    source.name = "Source"
+    nt.links.new(source.outputs[0], nodes.input_socket(node, "shadows"))
+    out = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    nt.links.new(nodes.output_socket(node, "BSDF"), out.inputs["Surface"])
+    fcurve = nodes.input_socket(node, "light_strength").driver_add("default_value")
+    fcurve.driver.expression = "2.5"
+    return mat, node, source, out
+
+
+def _assert_user_setup_kept(nodes, mat, node, source, out, value_param, value):
+    sock = nodes.input_socket(node, value_param)
+    got = sock.default_value
+    assert (tuple(got)[:len(value)] if hasattr(got, "__len__") else got) == \
+        pytest.approx(value, **F32)
+    (link,) = nodes.input_socket(node, "shadows").links
+    assert link.from_node == source
+    (link,) = out.inputs["Surface"].links
+    assert link.from_node == node and nodes.socket_key(node, link.from_socket) == "out:BSDF"
+    (fcurve,) = mat.node_tree.animation_data.drivers
+    assert fcurve.data_path == nodes.input_socket(node, "light_strength").path_from_id(
+        "default_value")
+    assert fcurve.driver.is_valid and fcurve.driver.expression == "2.5"
+
+
+def test_upgrade_keeps_the_group_and_the_users_values_and_links(nodes, bpy):
+    needs_shader("lambert")
+    tree = nodes.ensure_group("lambert")
+    setup = _user_setup(bpy, nodes, tree, "albedo", (0.1, 0.2, 0.3))
+    marker = tree.nodes.new("NodeReroute")
+    marker.name = "stale"
+    tree["rm_version"] = nodes.NODES_VERSION - 1
+    assert nodes.find_outdated_groups() == [tree]
+    n_groups = len(bpy.data.node_groups)
+
+    nodes.upgrade_group(tree)
+
+    assert nodes.find_outdated_groups() == []
+    assert tree["rm_version"] == nodes.NODES_VERSION
+    assert "stale" not in tree.nodes  # rebuilt, not left alone
+    assert len(bpy.data.node_groups) == n_groups
+    mat, node, source, out = setup
+    assert node.node_tree == tree and tree.name == "RM Lambert"
+    _assert_user_setup_kept(nodes, mat, node, source, out, "albedo", (0.1, 0.2, 0.3))
+
+
+def test_ensure_group_upgrades_an_outdated_group_in_place(nodes):
+    needs_shader("lambert")
+    tree = nodes.ensure_group("lambert")
+    tree["rm_version"] = 0
+    assert nodes.ensure_group("lambert") == tree
+    assert tree["rm_version"] == nodes.NODES_VERSION
+
+
+def test_variant_switch_keeps_values_links_and_drivers(nodes, bpy):
+    needs_shader("phong")
+    tree = nodes.ensure_group("phong")
+    setup = _user_setup(bpy, nodes, tree, "exponent", 7.0)
+    mat, node, source, out = setup
+    nodes.input_socket(node, "ks").default_value = (0.2, 0.4, 0.6, 1.0)
+
+    new_tree, reset = nodes.switch_variant(node, normalization="energy")
+
+    assert reset == ()
+    assert node.node_tree == new_tree and new_tree.name == "RM Phong (Energy)"
+    assert tree.name == "RM Phong (None)"  # the other variant stays for its users
+    _assert_user_setup_kept(nodes, mat, node, source, out, "exponent", 7.0)
+    assert tuple(nodes.input_socket(node, "ks").default_value)[:3] == \
+        pytest.approx((0.2, 0.4, 0.6), **F32)
+
+
+def test_width_switch_moves_drivers_to_the_right_sockets(nodes, bpy):
+    """Sockets appear and disappear between width modes: index-based driver
+    paths must follow their parameter."""
+    needs_shader("microfacet")
+    tree = nodes.ensure_group("microfacet", distribution="trowbridge_reitz")
+    mat, node, source, out = _user_setup(bpy, nodes, tree, "ks", (0.5, 0.6, 0.7))
+    old_index = list(node.inputs).index(nodes.input_socket(node, "light_strength"))
+    nodes.switch_variant(node, width_mode="alpha_xy")
+    assert list(node.inputs).index(nodes.input_socket(node, "light_strength")) != old_index
+    _assert_user_setup_kept(nodes, mat, node, source, out, "ks", (0.5, 0.6, 0.7))
+
+
+def test_variant_switch_resets_a_conflicting_enum(nodes, bpy):
+    needs_shader("microfacet")
+    tree = nodes.ensure_group("microfacet", shadowing="smith_1967")
+    node = add_group_node(new_material(bpy), tree)
+    new_tree, reset = nodes.switch_variant(node, distribution="gaussian")
+    assert reset == ("shadowing",)
+    assert new_tree["rm_variant"].to_dict()["shadowing"] == "smith"
+    with pytest.raises(ValueError):
+        nodes.switch_variant(node, distribution="nope")
+
+
+def test_scene_uses_rm_groups(nodes, bpy):
+    needs_shader("lambert")
+    scene = bpy.context.scene
+    mat = new_material(bpy)
+    mesh = bpy.data.meshes.new("mesh")
+    mesh.materials.append(mat)
+    scene.collection.objects.link(bpy.data.objects.new("obj", mesh))
+    assert not nodes.scene_uses_rm_groups(scene)
+    wrapper = bpy.data.node_groups.new("wrapper", "ShaderNodeTree")
+    add_group_node(SimpleNamespace(node_tree=wrapper), nodes.ensure_group("lambert"))
+    add_group_node(mat, wrapper)  # nested one level down
+    assert nodes.scene_uses_rm_groups(scene)
+
+
+# ---------------------------------------------------------------------------
+# The installed extension: Add menu, sidebar, operators, handlers
+
+class Recorder:
+    """A stand-in for ``UILayout`` that records what a draw function asks for."""
+
+    def __init__(self, log=None):
+        self.log = [] if log is None else log
+
+    def operator(self, idname, text="", **_kw):
+        props = SimpleNamespace()
+        self.log.append(("operator", idname, text, props))
+        return props
+
+    def operator_menu_enum(self, idname, prop, text="", **_kw):
+        self.log.append(("operator_menu_enum", idname, text, prop))
+
+    def menu(self, idname, text="", **_kw):
+        self.log.append(("menu", idname, text))
+
+    def label(self, text="", **_kw):
+        self.log.append(("label", text))
+
+    def separator(self, **_kw):
+        pass
+
+    def _child(self, *_a, **_kw):
+        return Recorder(self.log)
+
+    box = row = column = split = _child
+
+    def of(self, kind):
+        return [entry for entry in self.log if entry[0] == kind]
+
+
+@pytest.fixture
+def ui(installed_extension):
+    bpy_env.reset_scene()
+    return importlib.import_module(installed_extension + ".ui")
+
+
+def shader_editor(tree_type="ShaderNodeTree", **extra):
+    return SimpleNamespace(space_data=SimpleNamespace(type="NODE_EDITOR", tree_type=tree_type),
+                           **extra)
+
+
+def test_add_menu_lists_every_model_and_preset(ui, bpy):
+    appended = [f for f in bpy.types.NODE_MT_shader_node_add_all._dyn_ui_initialize()
+                if getattr(f, "__module__", "") == ui.__name__]
+    assert len(appended) == 1
+    layout = Recorder()
+    appended[0](SimpleNamespace(layout=layout), shader_editor())
+    assert layout.of("menu") == [("menu", "NODE_MT_rm_add", "")]
+    other = Recorder()
+    appended[0](SimpleNamespace(layout=other), shader_editor("GeometryNodeTree"))
+    assert other.log == []
+
+    menu = bpy.types.NODE_MT_rm_add
+    assert menu.bl_label == "Reflection Models"
+    layout = Recorder()
+    menu.draw(SimpleNamespace(layout=layout), None)
+    added = {props.model: text for _k, idname, text, props in layout.of("operator")
+             if idname == "node.rm_add_model"}
+    submenus = {text: idname for _k, idname, text in layout.of("menu")}
+    assert submenus == {"Microfacet": "NODE_MT_rm_add_microfacet"}
+    for model in catalogue.MODELS.values():
+        assert added.get(model.id) == model.label or model.label in submenus
+    for preset in catalogue.PRESETS.values():
+        assert added[preset.id] == preset.label
+    assert all(props.use_transform for *_x, props in layout.of("operator"))
+
+    layout = Recorder()
+    bpy.types.NODE_MT_rm_add_microfacet.draw(SimpleNamespace(layout=layout), None)
+    dists = [(props.model, props.distribution) for *_x, props in layout.of("operator")]
+    assert dists == [("microfacet", d) for d in catalogue.DISTRIBUTIONS]
+
+    # tooltips come from the catalogue
+    op = bpy.types.NODE_OT_rm_add_model
+    for model in catalogue.MODELS.values():
+        assert op.description(None, SimpleNamespace(model=model.id, distribution="")) == \
+            model.description
+    assert op.description(None, SimpleNamespace(model="cook_torrance", distribution="")) == \
+        catalogue.PRESETS["cook_torrance"].description
+
+
+def test_add_operator_places_a_selected_group_node_at_the_cursor(ui, bpy):
+    needs_shader("lambert")
+    mat = new_material(bpy)
+    tree = mat.node_tree
+    before = set(tree.nodes)
+    for n in before:
+        n.select = True
+    space = SimpleNamespace(type="NODE_EDITOR", tree_type="ShaderNodeTree", edit_tree=tree,
+                            cursor_location=(120.0, -40.0))
+    reports = []
+    fake = SimpleNamespace(model="lambert", distribution="", report=lambda *a: reports.append(a))
+    result = bpy.types.NODE_OT_rm_add_model.execute(fake, SimpleNamespace(space_data=space))
+    assert result == {"FINISHED"}, reports
+    (node,) = set(tree.nodes) - before
+    assert node.node_tree.name == "RM Lambert"
+    assert tuple(node.location) == pytest.approx((120.0, -40.0))
+    assert node.select and tree.nodes.active == node
+    assert not any(n.select for n in before)
+
+    fake.model = "nope"
+    assert bpy.types.NODE_OT_rm_add_model.execute(fake, SimpleNamespace(space_data=space)) \
+        == {"CANCELLED"}
+    assert "nope" in reports[-1][1]
+
+
+def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
+    needs_shader("phong")
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".nodes")
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = False
+    node = add_group_node(new_material(bpy), nodes.ensure_group("phong"))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    panel = bpy.types.NODE_PT_rm_sidebar
+    ctx = shader_editor(scene=scene, active_node=node, active_object=sun)
+    assert panel.poll(ctx) and not panel.poll(shader_editor("GeometryNodeTree"))
+
+    layout = Recorder()
+    panel.draw(SimpleNamespace(layout=layout), ctx)
+    ops = [entry[1] for entry in layout.of("operator")]
+    assert "node.rm_enable_osl" in ops
+    assert ("label", "Open Shading Language is off") in layout.log
+    assert ("menu", "NODE_MT_rm_variant_normalization", "None") in layout.of("menu")
+    assert ("operator", "node.rm_bind_light", "Bind Sun") == layout.of("operator")[-1][:3]
+    assert layout.of("operator_menu_enum")[0][1:] == ("node.rm_bind_light", "Bind Light",
+                                                      "light")
+    assert "node.rm_upgrade_groups" not in ops
+
+    scene.cycles.shading_system = True
+    scene.cycles.device = "CPU"
+    node.node_tree["rm_version"] = 0
+    layout = Recorder()
+    panel.draw(SimpleNamespace(layout=layout), ctx)
+    ops = [entry[1] for entry in layout.of("operator")]
+    assert "node.rm_enable_osl" not in ops and "node.rm_upgrade_groups" in ops
+
+    # the variant menu offers every choice and the operator switches
+    layout = Recorder()
+    bpy.types.NODE_MT_rm_variant_normalization.draw(SimpleNamespace(layout=layout), ctx)
+    choices = [props.value for *_x, props in layout.of("operator")]
+    assert choices == ["none", "energy"]
+    fake = SimpleNamespace(param="normalization", value="energy", report=lambda *a: None)
+    assert bpy.types.NODE_OT_rm_switch_variant.execute(fake, ctx) == {"FINISHED"}
+    assert node.node_tree.name == "RM Phong (Energy)"
+
+
+def test_enable_osl_operator(ui, bpy):
+    scene = bpy.context.scene
+    scene.render.engine = "BLENDER_WORKBENCH"
+    result = bpy.types.NODE_OT_rm_enable_osl.execute(None, SimpleNamespace(scene=scene))
+    assert result == {"FINISHED"}
+    assert (scene.render.engine, scene.cycles.device, scene.cycles.shading_system) == \
+        ("CYCLES", "CPU", True)
+
+
+def test_load_and_render_handlers_warn_when_osl_is_off(ui, bpy, tmp_path, caplog):
+    needs_shader("lambert")
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".nodes")
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = False
+    mat = new_material(bpy)
+    add_group_node(mat, nodes.ensure_group("lambert"))
+    mesh = bpy.data.meshes.new("mesh")
+    mesh.materials.append(mat)
+    scene.collection.objects.link(bpy.data.objects.new("obj", mesh))
+    path = tmp_path / "osl_off.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+
+    with caplog.at_level(logging.WARNING):
+        bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+    assert any(ui.OSL_OFF_WARNING in r.getMessage() for r in caplog.records)
+
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        ui.on_render_init(bpy.context.scene)
+    assert any(ui.OSL_OFF_WARNING in r.getMessage() for r in caplog.records)
+
+    caplog.clear()
+    bpy.context.scene.cycles.shading_system = True
+    bpy.context.scene.cycles.device = "CPU"
+    with caplog.at_level(logging.WARNING):
+        ui.on_render_init(bpy.context.scene)
+    assert not caplog.records
+    bpy_env.reset_scene()
+
+
+def _names(items):
+    return sorted(x if isinstance(x, str) else x.__name__ for x in items)
+
+
+def _registered_by(bpy, prefix):
+    found = [name for name in dir(bpy.types)
+             if getattr(getattr(bpy.types, name), "__module__", "").startswith(prefix)]
+    draw_funcs = bpy.types.NODE_MT_shader_node_add_all._dyn_ui_initialize()
+    found += [f for f in draw_funcs if getattr(f, "__module__", "").startswith(prefix)]
+    for name in ("load_post", "render_init"):
+        found += [h for h in getattr(bpy.app.handlers, name)
+                  if getattr(h, "__module__", "").startswith(prefix)]
+    return found
+
+
+def test_unregister_leaves_no_classes_menu_entries_or_handlers(installed_extension, bpy):
+    registered = _registered_by(bpy, installed_extension)
+    assert {"NODE_OT_rm_add_model", "NODE_MT_rm_add", "NODE_PT_rm_sidebar"} <= set(registered)
+    assert any(callable(x) and x.__name__ == "on_load_post" for x in registered)
+    bpy_env.disable_extension(installed_extension)
+    try:
+        assert _registered_by(bpy, installed_extension) == []
+    finally:
+        bpy_env.enable_extension(installed_extension)
+    assert _names(_registered_by(bpy, installed_extension)) == _names(registered)
