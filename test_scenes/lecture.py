@@ -18,7 +18,9 @@ reflection angle ``theta_r`` positive on the mirror (+x) side.
 
 from __future__ import annotations
 
+import functools
 import html
+import itertools
 import math
 import time
 
@@ -62,11 +64,14 @@ def _fmt(v):
     return f"{v:g}"
 
 
+_CLIP_IDS = itertools.count(1)
+
+
 class Plot:
     """A Cartesian plot drawn as SVG: lines, points, reference lines, labels."""
 
     def __init__(self, title, xlabel, ylabel, xlim, ylim, *, logx=False, logy=False,
-                 width=460, height=320, equal=False, axes=True):
+                 width=460, height=320, equal=False, axes=True, legend="top"):
         self.title, self.xlabel, self.ylabel = title, xlabel, ylabel
         self.xlim, self.ylim = xlim, ylim
         self.logx, self.logy = logx, logy
@@ -75,6 +80,7 @@ class Plot:
         self.items = []
         self.legend = []
         self.axes = axes
+        self.legend_at = legend  # "top" or "bottom" (right-aligned either way)
         if equal:  # one unit is as long along x as along y
             pw = self.w - self.m[0] - self.m[1]
             sx = pw / (xlim[1] - xlim[0])
@@ -97,8 +103,8 @@ class Plot:
     def line(self, x, y, color=COLORS[0], label=None, dash=None, width=1.6):
         x, y = np.asarray(x, float), np.asarray(y, float)
         ok = np.isfinite(x) & np.isfinite(y)
-        if self.logy:
-            ok &= y > 0
+        if self.logy:  # below the axis: leave a gap rather than run along it
+            ok &= y >= self.ylim[0]
         # split into runs of valid points; clip to the plot's y range
         runs, cur = [], []
         for xi, yi, good in zip(x, y, ok):
@@ -112,7 +118,12 @@ class Plot:
         for run in runs:
             xs = self._tx([p[0] for p in run])
             ys = np.clip(self._ty([p[1] for p in run]), self.m[2] - 2, self.h - self.m[3] + 2)
-            pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(xs, ys))
+            keep, last = [], None  # drop points within 0.6 px of the last one kept
+            for k, (a, b) in enumerate(zip(xs, ys)):
+                if last is None or k == len(xs) - 1 or abs(a - last[0]) + abs(b - last[1]) >= 0.6:
+                    keep.append((a, b))
+                    last = (a, b)
+            pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in keep)
             d = f' stroke-dasharray="{dash}"' if dash else ""
             self.items.append(f'<polyline fill="none" stroke="{color}" stroke-width="{width}"{d} '
                               f'points="{pts}"/>')
@@ -167,12 +178,13 @@ class Plot:
                        f'text-anchor="middle">{html.escape(self.ylabel)}</text>')
         out.append(f'<text x="{w / 2:.1f}" y="16" text-anchor="middle" font-size="13" '
                    f'font-weight="bold">{html.escape(self.title)}</text>')
-        out.append(f'<clipPath id="c{id(self)}"><rect x="{ml}" y="{mt - 3}" width="{w - ml - mr}" '
+        clip = f"rmclip{next(_CLIP_IDS)}"  # unique within a page of many plots
+        out.append(f'<clipPath id="{clip}"><rect x="{ml}" y="{mt - 3}" width="{w - ml - mr}" '
                    f'height="{h - mt - mb + 6}"/></clipPath>')
-        out.append(f'<g clip-path="url(#c{id(self)})">')
+        out.append(f'<g clip-path="url(#{clip})">')
         out.extend(self.items)
         out.append('</g>')
-        y = mt + 12
+        y = mt + 12 if self.legend_at == "top" else h - mb - 8 - 14 * (len(self.legend) - 1)
         for label, color, dash, kind in self.legend:
             x = w - mr - 8
             out.append(f'<text x="{x - 26}" y="{y + 4}" text-anchor="end">{html.escape(label)}</text>')
@@ -292,6 +304,8 @@ def fig_phong_lobes(fast=False):
         f"Half-widths measured on the reference's lobe sampled every {step} deg "
         f"(error to acos(2^(-1/s)): {width_err:.4f} deg); reciprocity on 4000 random "
         "direction pairs per exponent, both from the formula and reference.brdf(L, E) vs brdf(E, L).")
+    check["values"] = {"half_widths_deg": widths, "expected_deg": expected,
+                       "width_error_deg": width_err, "reciprocity_error": recip}
     return plot.svg(), check
 
 
@@ -357,6 +371,8 @@ def fig_energy(fast=False):
         "dw = dv dphi/((s+1) cos^s u), v = cos^(s+1) u). The normalised albedo at s -> inf "
         "tends to cos theta_o (the lobe collapses onto R(E), where cos theta_i = cos theta_o), "
         "not to 1: the (s+1)/(2pi) factor is a bound, not an exact normalisation.")
+    check["values"] = {"normalised_max": norm_max, "bound_ratio_max": bound_ratio,
+                       "limit_error": limit_err}
     return plot.svg(), check
 
 
@@ -410,6 +426,7 @@ def fig_distributions(fast=False):
         "Tail ordering at 3 beta = 45 deg, heaviest first: " + " > ".join(order)
         + ". Uses the errata-corrected conversions (Blinn c = -ln2/ln cos beta, Gaussian "
         "c2 = sqrt(ln2)/beta, Trowbridge-Reitz with its square, normalised Beckmann).")
+    check["values"] = {"at_beta": at_beta, "at_3beta": at_3beta, "tail_order": order}
     return plot.svg(), check
 
 
@@ -417,8 +434,13 @@ def fig_distributions(fast=False):
 # 4. Smith shadowing and the self-consistency condition
 # --------------------------------------------------------------------------
 
+@functools.lru_cache(maxsize=None)
+def _leggauss(n):
+    return np.polynomial.legendre.leggauss(n)  # an n x n eigenproblem: cache it
+
+
 def _gl(n, a, b):
-    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = _leggauss(n)
     return a + (b - a) * 0.5 * (x + 1.0), 0.5 * (b - a) * w
 
 
@@ -472,14 +494,14 @@ SC_THETAS_DEG = (0, 30, 60, 75, 85, 89)
 def fig_smith(fast=False):
     n = 120 if fast else 300
     plot = Plot("Smith's S(theta) = G1 for Beckmann surfaces", "theta (deg)", "S(theta)",
-                (0, 90), (0, 1.02), width=520)
+                (0, 90), (0, 1.02), width=520, legend="bottom")
     th = np.linspace(0, 89.9, 400) * DEG
     w = (np.sin(th), np.zeros_like(th), np.cos(th))
     for k, m in enumerate((0.1, 0.3, 0.6, 1.0)):
         plot.line(th / DEG, 1.0 / (1.0 + R.Lambda_beckmann(*w, m, m)), color=COLORS[k],
                   label=f"m = {m}")
         plot.line(th / DEG, R.S_smith_1967(*w, m, m), color=COLORS[k], dash="4 3", width=1.2)
-    plot.text(2, 0.05, "dashed: the slide's 1967 form with the erfc bracket", size=10)
+    plot.text(2, 0.05, "dashed: the slide's 1967 form (erfc bracket)", size=10)
 
     b15 = 15.0 * DEG
     cases = [
@@ -522,6 +544,7 @@ def fig_smith(fast=False):
         f"Tilt integral by {n}-node Gauss-Legendre split at alpha = 90 deg - theta, azimuth "
         "in closed form. The 1967 bracket ratio equals 1 - erfc(1/(m tan theta))/2, the "
         "chance the point's own facet faces the ray, already counted by max(0, w.m).")
+    check["values"] = {"smith_error": smith_err, "bracket_deviation": dev1967}
     return plot.svg() + "\n" + table, check
 
 
@@ -543,7 +566,7 @@ TS_INCIDENCES_DEG = (10, 20, 30, 40, 50, 60, 70, 75, 80)
 def torrance_sparrow_peaks(material, theta_i_deg, step_deg=0.01):
     """Peak positions (deg) of f_r and of f_r cos(theta_r) in the plane of incidence."""
     params = TS_MATERIALS[material]
-    tr = np.arange(0.0, 89.99 + step_deg / 2, step_deg) * DEG
+    tr = np.linspace(0.0, 89.99, int(round(89.99 / step_deg)) + 1) * DEG
     f = R.brdf("torrance_sparrow", _light(theta_i_deg * DEG), _in_plane(tr), beta=TS_BETA,
                **params)[:, 0]
     return float(tr[np.argmax(f)] / DEG), float(tr[np.argmax(f * np.cos(tr))] / DEG), tr, f
@@ -562,8 +585,7 @@ def fig_torrance_sparrow(fast=False):
             y = f * np.cos(tr)
             ymir = float(R.brdf("torrance_sparrow", _light(ti * DEG), _in_plane(ti * DEG),
                                 beta=TS_BETA, **TS_MATERIALS[name])[0] * math.cos(ti * DEG))
-            plot.line(tr / DEG, y / ymir, color=COLORS[k % len(COLORS)],
-                      label=f"{ti} deg" if ti % 20 == 0 or ti >= 70 else None)
+            plot.line(tr / DEG, y / ymir, color=COLORS[k % len(COLORS)], label=f"{ti} deg")
             p_rad, p_int, _, _ = torrance_sparrow_peaks(name, ti, step)
             peaks[(name, ti)] = (p_rad, p_int)
             plot.points([p_int], [1.0 if abs(p_int - ti) < 1e-9 else float(
@@ -571,7 +593,7 @@ def fig_torrance_sparrow(fast=False):
         svgs.append(plot.svg())
     rows = [[f"{ti} deg"] + [f"{peaks[(m, ti)][j]:.2f}" for m in TS_MATERIALS for j in (1, 0)]
             for ti in TS_INCIDENCES_DEG]
-    table = svg_table("Peak of the reflection in the plane of incidence (deg; mirror = theta_i)",
+    table = svg_table("Peak position theta_r (deg; mirror = theta_i)",
                       ["theta_i", "Al: f cos", "Al: f_r", "MgO: f cos", "MgO: f_r"], rows,
                       col_width=80, first_width=70)
     al, mgo = "aluminium", "magnesium oxide"
@@ -602,6 +624,8 @@ def fig_torrance_sparrow(fast=False):
         "10..80 deg for both materials; f_r cos theta_r peaks beyond the mirror (> theta_i + 1 deg) "
         "for MgO at 75 and 80 deg (for Al it does not: reported, not required)",
         detail)
+    check["values"] = {"peaks_deg": {f"{m}@{ti}": {"f_r": p[0], "f_r_cos": p[1]}
+                                     for (m, ti), p in peaks.items()}}
     return "\n".join(svgs) + "\n" + table, check
 
 
@@ -628,7 +652,7 @@ def fig_vgroove_smith(fast=False):
     to = np.linspace(-89.5, 89.5, 359) * DEG
     plot = Plot(f"Shadowing G in the plane of incidence (Smith: Beckmann m = {VG_M})",
                 "theta_o (deg; negative = toward the light's side)", "G", (-90, 90), (0, 1.05),
-                width=520)
+                width=520, legend="bottom")
     near, far = 0.0, 0.0
     for k, ti in enumerate((30, 70)):
         G_v, G_s = vgroove_smith_curves(ti * DEG, to)
@@ -648,6 +672,7 @@ def fig_vgroove_smith(fast=False):
         "Both from addon.reference (G_vgroove; Lambda_beckmann). The V-groove G depends on H "
         "only, not on the roughness; Smith's depends on the slope distribution, so at grazing "
         "they part.")
+    check["values"] = {"near_difference": near, "grazing_difference": far}
     return plot.svg(), check
 
 
@@ -863,8 +888,8 @@ def glitter_reference(rays):
     return np.where(down, val, 0.0)
 
 
-def _to_png(img, path):
-    """Write a grey float image, tone-mapped by its peak, as an 8-bit PNG (no deps)."""
+def png_bytes(img):
+    """A grey float image, scaled by its peak and gamma 1/2.2, as 8-bit PNG bytes (no deps)."""
     import struct
     import zlib
     a = np.clip(img / max(float(img.max()), 1e-12), 0, 1) ** (1 / 2.2)
@@ -873,40 +898,30 @@ def _to_png(img, path):
 
     def chunk(t, d):
         return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", a.shape[1], a.shape[0], 8, 0, 0, 0, 0))
+    return (b"\x89PNG\r\n\x1a\n"
+            + chunk(b"IHDR", struct.pack(">IIBBBBB", a.shape[1], a.shape[0], 8, 0, 0, 0, 0))
             + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
-    with open(path, "wb") as f:
-        f.write(data)
 
 
-def _image_svg(img, mask, title, rays):
-    """The render as an SVG: one rect per run of equal grey in each row, the
-    half-peak outline in red."""
+def _image_svg(img, mask, title):
+    """The render as an SVG (the image embedded as a PNG, scaled 2x) with the
+    outline of ``mask`` drawn in red."""
+    import base64
     Hh, W = img.shape
-    a = np.clip(img / max(float(img.max()), 1e-12), 0, 1) ** (1 / 2.2)
-    g = (a * 255 + 0.5).astype(int)
-    s = 2  # pixels per image pixel
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W * s}" height="{Hh * s + 22}" '
-           f'viewBox="0 0 {W * s} {Hh * s + 22}" font-family="sans-serif" font-size="11" '
-           'shape-rendering="crispEdges">',
+    s = 2
+    data = base64.b64encode(png_bytes(img)).decode("ascii")
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" xmlns:xlink="http://www.w3.org/1999/xlink" '
+           f'width="{W * s}" height="{Hh * s + 22}" viewBox="0 0 {W * s} {Hh * s + 22}" '
+           'font-family="sans-serif" font-size="11">',
            f'<rect width="{W * s}" height="{Hh * s + 22}" fill="black"/>',
-           f'<text x="4" y="15" fill="white" font-size="13">{html.escape(title)}</text>',
-           '<g transform="translate(0,22)">']
-    for r in range(Hh):
-        c = 0
-        while c < W:
-            v = g[r, c]
-            c2 = c
-            while c2 + 1 < W and g[r, c2 + 1] == v:
-                c2 += 1
-            if v > 0:
-                out.append(f'<rect x="{c * s}" y="{r * s}" width="{(c2 - c + 1) * s}" height="{s}" '
-                           f'fill="rgb({v},{v},{v})"/>')
-            c = c2 + 1
+           f'<text x="4" y="15" fill="white" font-size="12">{html.escape(title)}</text>',
+           f'<image x="0" y="22" width="{W * s}" height="{Hh * s}" style="image-rendering:pixelated" '
+           f'href="data:image/png;base64,{data}"/>',
+           '<g transform="translate(0,22)" shape-rendering="crispEdges">']
     # outline: mask pixels with a non-mask 4-neighbour
     edge = mask & ~(np.roll(mask, 1, 0) & np.roll(mask, -1, 0) & np.roll(mask, 1, 1) & np.roll(mask, -1, 1))
     for r, c in zip(*np.nonzero(edge)):
-        out.append(f'<rect x="{c * s}" y="{r * s}" width="{s}" height="{s}" fill="#e33" opacity="0.7"/>')
+        out.append(f'<rect x="{c * s}" y="{r * s}" width="{s}" height="{s}" fill="#e33" opacity="0.8"/>')
     out.append('</g></svg>')
     return "\n".join(out)
 
@@ -947,10 +962,11 @@ def fig_glitter(fast=False, *, res=None, use_api=None, out_png=None):
     rel_img = float(np.max(np.abs(img - ref)) / max(float(ref.max()), 1e-12))
     ok = err_geo <= tol and err_ref <= 1e-9 + pitch
     if out_png:
-        _to_png(img, out_png)
+        with open(out_png, "wb") as f:
+            f.write(png_bytes(img))
     fmt = lambda t: "near end {:.2f}, far end {:.2f}, half-width {:.2f} deg".format(*(v / DEG for v in t))  # noqa: E731
     svg = _image_svg(img, m_r, f"Rendered glitter path ({res[0]}x{res[1]}, 1 spp, exact mode); "
-                     "red: where D >= D(0)/2", rays)
+                     "red: outline of D >= D(0)/2")
     check = _check(
         "Glitter path of the sun on a Beckmann sea matches Minnaert's geometry", ok,
         f"render: {fmt(meas)} (max deviation {err_geo:.3f} deg)",
@@ -970,6 +986,9 @@ def fig_glitter(fast=False, *, res=None, use_api=None, out_png=None):
         f"same threshold: {fmt(refx)}; render vs reference: max |difference| {rel_img:.1e} of the "
         f"peak. Render {render_s:.2f} s; scene, render and read {total_s:.2f} s.")
     check["render_seconds"] = render_s
+    check["values"] = {"render_deg": [v / DEG for v in meas], "geometry_deg": [v / DEG for v in exact],
+                       "reference_deg": [v / DEG for v in refx], "pixel_pitch_deg": pitch,
+                       "image_max_rel_difference": rel_img, "how": how}
     return svg, check
 
 
