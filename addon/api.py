@@ -206,13 +206,13 @@ def osl_status(scene) -> tuple:
     cycles = scene.cycles
     if not cycles.shading_system:
         problems.append("Open Shading Language is off")
-    if cycles.device == 'GPU':
-        backend = _compute_device_type()
+    backend = _compute_device_type()
+    if cycles.device == 'GPU' and backend not in (None, 'NONE'):  # 'NONE': Cycles uses the CPU
         if backend == 'OPTIX':
             warnings.append("OptiX runs OSL without trace(): exact mode has no shadows")
         else:
-            problems.append(f"The device is GPU ({backend or 'none'}): OSL runs on the "
-                            "CPU (or OptiX) only")
+            problems.append(f"The device is GPU ({backend}): OSL runs on the CPU (or "
+                            "OptiX) only")
     return problems, warnings
 
 

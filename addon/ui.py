@@ -187,6 +187,8 @@ class NODE_OT_rm_bind_light(bpy.types.Operator):
         return {'FINISHED'}
 
     def invoke(self, context, event):
+        if self.properties.is_property_set("light"):  # chosen in a menu or a button
+            return self.execute(context)
         obj = context.active_object
         if obj is not None and obj.type == 'LIGHT' and obj.data.type in api.SUPPORTED_LIGHTS:
             self.light = obj.name

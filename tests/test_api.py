@@ -187,6 +187,18 @@ def test_set_params_changes_values_and_variant(api, bpy):
         api.set_params(node, distribution="gaussian")
 
 
+def test_ensure_groups_builds_every_default_variant_once(api, bpy):
+    for model_id in catalogue.MODELS:
+        needs_shader(model_id)
+    groups = api.ensure_groups()
+    assert sorted(groups) == sorted(catalogue.MODELS)
+    from addon import nodes
+    for model_id, tree in groups.items():
+        assert tree.name == nodes.group_name(model_id)
+    n_groups = len(bpy.data.node_groups)
+    assert api.ensure_groups() == groups and len(bpy.data.node_groups) == n_groups
+
+
 def test_enable_osl_and_osl_status(api, bpy):
     scene = bpy.context.scene
     scene.render.engine = "BLENDER_WORKBENCH"

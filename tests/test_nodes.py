@@ -526,6 +526,30 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     assert node.node_tree.name == "RM Phong (Energy)"
 
 
+def test_bind_light_operator_binds_the_lamp_chosen_not_the_active_one(ui, bpy):
+    needs_shader("lambert")
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".nodes")
+    node = add_group_node(new_material(bpy), nodes.ensure_group("lambert"))
+    chosen = bpy.data.objects.new("Chosen", bpy.data.lights.new("Chosen", "POINT"))
+    active = bpy.data.objects.new("Active", bpy.data.lights.new("Active", "SUN"))
+    for obj in (chosen, active):
+        bpy.context.scene.collection.objects.link(obj)
+    op = bpy.types.NODE_OT_rm_bind_light
+    ctx = shader_editor(scene=bpy.context.scene, active_node=node, active_object=active)
+    items = [item[0] for item in ui._light_items(None, ctx)]
+    assert items == ["Active", "Chosen"]
+
+    fake = SimpleNamespace(light="Chosen", report=lambda *a: None,
+                           properties=SimpleNamespace(is_property_set=lambda name: True))
+    fake.execute = lambda context: op.execute(fake, context)
+    assert op.invoke(fake, ctx, None) == {"FINISHED"}
+    assert node.inputs["Point Light"].default_value == 1.0  # the point lamp, not the sun
+
+    fake.properties = SimpleNamespace(is_property_set=lambda name: False)
+    assert op.invoke(fake, ctx, None) == {"FINISHED"}
+    assert fake.light == "Active" and node.inputs["Point Light"].default_value == 0.0
+
+
 def test_enable_osl_operator(ui, bpy):
     scene = bpy.context.scene
     scene.render.engine = "BLENDER_WORKBENCH"
