@@ -145,42 +145,66 @@ def _set_input(socket, value):
     socket.default_value = value
 
 
+VIA = "api"
+"""How :func:`make_material` builds the shader by default: ``"api"``
+(``addon.api.add_model``: the extension's node group, as a user gets it) or
+``"script"`` (the model's OSL file as a bare internal Script node; socket
+names = OSL parameter names)."""
+
+
 def make_material(name, model, params, *, output="Direct", light=None, tangent=None,
-                  normal=None, extra=None):
-    """A material running ``osl/rm_<model>.osl`` as an internal Script node.
+                  normal=None, extra=None, via=None):
+    """A material running the model ``model`` (catalogue id) with
+    ``reference``-style ``params``.
 
     - ``output``: 'Direct' or 'BSDF' (closures, straight to the surface), or
       the name of a colour/float output of the shader, shown as an emission
-      of strength 1; ``"pack:a,b,c"`` packs three float outputs into RGB as
+      of strength 1; ``"pack:a,b"`` packs float outputs into RGB as
       ``0.5 + 0.5 x`` (for signed cosines).
     - ``light``: dict of light inputs (``light_direction``, ``point_light``,
-      ``light_position``, ``light_strength``, ``shadows``...).
+      ``light_position``, ``light_strength``, ``shadows``...); ``extra``:
+      other inputs by parameter name (``tangent_rotation``).
     - ``tangent`` / ``normal``: ``None`` (unconnected), a 3-vector
       (constant), or a function ``f(tree) -> output socket``.
-    Returns ``(material, script_node)``.
+    - ``via``: ``"api"`` or ``"script"`` (default :data:`VIA`).
+    Returns ``(material, node)``: the group node (api) or the Script node.
     """
-    bpy = common.import_bpy()
-    from addon import oslutil
-
+    via = via or VIA
     mat = _new_material(name)
     tree = mat.node_tree
     out = tree.nodes.new("ShaderNodeOutputMaterial")
-    node = oslutil.make_script_node(tree, "rm_" + model)
-    for k, v in osl_params(model, params).items():
-        _set_input(node.inputs[k], v)
-    for k, v in (light or {}).items():
-        _set_input(node.inputs[k], v)
-    for k, v in (extra or {}).items():
-        _set_input(node.inputs[k], v)
+    if via == "api":
+        from addon import api, nodes as rm_nodes
+        mode = "path_traced" if output == "BSDF" else "exact"
+        node = api.add_model(mat, model, mode=mode, **params)
+
+        def inp(key):
+            return rm_nodes.input_socket(node, key)
+
+        def outp(key):
+            return rm_nodes.output_socket(node, key)
+    else:
+        from addon import oslutil
+        node = oslutil.make_script_node(tree, "rm_" + model)
+        for k, v in osl_params(model, params).items():
+            _set_input(node.inputs[k], v)
+
+        def inp(key):
+            return node.inputs[key]
+
+        def outp(key):
+            return node.outputs[key]
+    for k, v in list((light or {}).items()) + list((extra or {}).items()):
+        _set_input(inp(k), v)
     for socket_name, src in (("tangent", tangent), ("shading_normal", normal)):
         if src is None:
             continue
         if callable(src):
-            tree.links.new(src(tree), node.inputs[socket_name])
+            tree.links.new(src(tree), inp(socket_name))
         else:
-            _set_input(node.inputs[socket_name], src)
+            _set_input(inp(socket_name), src)
     if output in ("Direct", "BSDF"):
-        tree.links.new(node.outputs[output], out.inputs["Surface"])
+        tree.links.new(outp(output), out.inputs["Surface"])
     else:
         em = tree.nodes.new("ShaderNodeEmission")
         em.inputs["Strength"].default_value = 1.0
@@ -191,12 +215,15 @@ def make_material(name, model, params, *, output="Direct", light=None, tangent=N
                 ma.operation = 'MULTIPLY_ADD'
                 ma.inputs[1].default_value = 0.5
                 ma.inputs[2].default_value = 0.5
-                tree.links.new(node.outputs[oname], ma.inputs[0])
+                tree.links.new(outp(oname), ma.inputs[0])
                 tree.links.new(ma.outputs[0], comb.inputs[i])
             tree.links.new(comb.outputs[0], em.inputs["Color"])
         else:
-            tree.links.new(node.outputs[output], em.inputs["Color"])
+            tree.links.new(outp(output), em.inputs["Color"])
         tree.links.new(em.outputs[0], out.inputs["Surface"])
+    for n in tree.nodes:  # exactly one active output: ours
+        if n.bl_idname == "ShaderNodeOutputMaterial":
+            n.is_active_output = n == out
     mat.cycles.emission_sampling = 'NONE'
     return mat, node
 
@@ -431,7 +458,7 @@ class Cylinder:
         return scene
 
 
-def cylinder_run(model_key, sun_key, *, mode="exact", resolution=(96, 48), path=None):
+def cylinder_run(model_key, sun_key, *, mode="exact", resolution=(96, 48), path=None, via=None):
     """Render one model on the cylinder under one sun and compare with the
     reference.  Returns a dict of numbers (``compare`` keys, highlight data,
     render seconds) and the images."""
@@ -441,7 +468,7 @@ def cylinder_run(model_key, sun_key, *, mode="exact", resolution=(96, 48), path=
     light = {"light_direction": sun, "shadows": 0.0, "point_light": 0.0}
     mat, _ = make_material(f"cyl_{model_key}_{sun_key}_{mode}", model, params,
                            output="Direct" if mode == "exact" else "BSDF", light=light,
-                           tangent=(1.0, 0.0, 0.0), normal=radial_normal_from_position)
+                           tangent=(1.0, 0.0, 0.0), normal=radial_normal_from_position, via=via)
     scene = cyl.build(mat, name=f"cyl_{model_key}_{sun_key}_{mode}",
                       sun_dir=sun if mode != "exact" else None)
     img, seconds = _render(scene, path)
@@ -738,7 +765,7 @@ def _segment_mask(basis, resolution, ortho, strands, radius, erode_px=1.0, end_p
     return idx
 
 
-def hair_run(*, resolution=(96, 96), strength=2.0, path=None):
+def hair_run(*, resolution=(96, 96), strength=2.0, path=None, via=None):
     """Kajiya-Kay exact on a fan of straight hair strands: Direct vs the
     reference per strand, Diffuse + Specular = Color / strength, the
     curve tangent the Geometry node gives, and the highlight's |T.H|."""
@@ -750,12 +777,22 @@ def hair_run(*, resolution=(96, 96), strength=2.0, path=None):
     scene.cycles_curves.shape = 'THICK'
     dirs, strands = hair_fan()
     radius = 0.04
-    light = {"light_direction": sun, "shadows": 0.0, "light_strength": strength}
     hc = _hair_curves("aniso_hair_fan", strands, radius)
+    # Through the api the Light inputs follow a sun lamp (bind_light); the
+    # lamp itself lights nothing here (the outputs are emissions).
+    lamp = common.add_sun(scene, sun, strength)
+    if (via or VIA) == "api":
+        light = {"shadows": 0.0}
+    else:
+        light = {"light_direction": sun, "shadows": 0.0, "light_strength": strength}
     mats = {}
     for out in ("Direct", "Diffuse", "Specular", "Color"):
-        mats[out], _ = make_material(f"hair_{out}", "kajiya_kay", KK, output=out, light=light,
-                                     tangent=curve_tangent_node)
+        mats[out], node = make_material(f"hair_{out}", "kajiya_kay", KK, output=out,
+                                        light=light, tangent=curve_tangent_node, via=via)
+        if (via or VIA) == "api":
+            from addon import api
+            api.bind_light(node, lamp)
+    output_names = [o.name for o in node.outputs]
     obj = _link_object(scene, "aniso_hair_fan", hc, mats["Direct"])
     imgs, seconds = {}, 0.0
     for out in ("Direct", "Diffuse", "Specular", "Color"):
@@ -810,7 +847,7 @@ def hair_run(*, resolution=(96, 96), strength=2.0, path=None):
         tangent_max_angle_deg=float(np.degrees(np.arccos(np.clip(cos_t.min(), -1, 1)))),
         highlight_strand=k_best, highlight_T_dot_H=float(th[k_best]),
         min_T_dot_H_over_strands=float(th.min()),
-        render_seconds=seconds, n_strands=len(strands),
+        render_seconds=seconds, n_strands=len(strands), node_outputs=output_names,
     )
     return cmp, imgs, exp, mask
 

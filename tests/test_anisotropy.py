@@ -101,9 +101,22 @@ def test_brushed_disc_radial_brushing_is_not_radial(bpy):
     assert r["streak_angle_error_deg"] > 45.0
 
 
+@pytest.mark.parametrize("model_key", list(A.CYLINDER_MODELS))
+def test_api_group_renders_like_the_bare_shader(bpy, model_key):
+    # The scenes build materials through addon.api (the node group); the
+    # bare Script node of the same .osl must give the same pixels (float32:
+    # identical arithmetic, measured 0).
+    r_api, img_api, *_ = A.cylinder_run(model_key, "sun_b", via="api")
+    r_osl, img_osl, *_ = A.cylinder_run(model_key, "sun_b", via="script")
+    assert np.max(np.abs(img_api - img_osl)) <= 1e-6 * max(r_api["peak"], 1.0)
+
+
 def test_hair_curves_kajiya_kay(bpy):
+    # through the api, light bound to a sun lamp of strength 2 (bind_light)
     r, imgs, exp, mask = A.hair_run()
     _show("hair", r)
+    # the group exposes the two terms as outputs
+    assert {"Diffuse", "Specular"} <= set(r["node_outputs"])
     assert r["n_pixels"] > 150
     # Geometry > Tangent on Cycles curves is the strand direction (float32)
     assert r["tangent_max_angle_deg"] <= 0.01
