@@ -18,9 +18,14 @@
 
 // Clamp that also maps NaN to the lower limit: bad input renders like the
 // range's limit, never as NaN (Cycles drops a closure with a NaN weight).
+// Cycles optimises OSL as if no value were NaN: a comparison such as
+// !(x >= lo) may send NaN to either limit (measured: the upper one), so NaN
+// is tested with isnan(), which is evaluated as written.
 float rm_clamp(float x, float lo, float hi)
 {
-    if (!(x >= lo))
+    if (isnan(x))
+        return lo;
+    if (x < lo)
         return lo;
     if (x > hi)
         return hi;
@@ -30,6 +35,40 @@ float rm_clamp(float x, float lo, float hi)
 color rm_clamp(color c, float lo, float hi)
 {
     return color(rm_clamp(c[0], lo, hi), rm_clamp(c[1], lo, hi), rm_clamp(c[2], lo, hi));
+}
+
+// The direction of a vector input, unit length; zero when the input is unset:
+// zero, or with a NaN or infinite component (comparisons cannot catch NaN,
+// see rm_clamp).  Any finite length works: a vector far from unit length is
+// first scaled by exact powers of two (so dot() neither overflows nor
+// underflows, and the result is bit-identical to that of the unit vector).
+vector rm_direction(vector v)
+{
+    for (int i = 0; i < 3; i++)
+        if (isnan(v[i]) || isinf(v[i]))
+            return vector(0.0);
+    vector u = v;
+    float m = max(max(abs(u[0]), abs(u[1])), abs(u[2]));
+    if (m == 0.0)
+        return vector(0.0);
+    for (int i = 0; i < 8 && m > 1048576.0; i++) {  // 2^20
+        u *= 1.0 / 1048576.0;
+        m *= 1.0 / 1048576.0;
+    }
+    for (int i = 0; i < 8 && m < 1.0 / 1048576.0; i++) {
+        u *= 1048576.0;
+        m *= 1048576.0;
+    }
+    return normalize(u);
+}
+
+// A point input: unset (use the default) when a component is NaN or infinite.
+int rm_finite(point p)
+{
+    for (int i = 0; i < 3; i++)
+        if (isnan(p[i]) || isinf(p[i]))
+            return 0;
+    return 1;
 }
 
 // log(1 + x) accurate for small x in float32 (Goldberg 1991, theorem 4).
@@ -331,10 +370,14 @@ void rm_begin(float point_light, vector light_direction, point light_position,
               output vector n, output vector t, output vector b, output vector wo,
               output vector wi, output color E)
 {
-    n = (dot(shading_normal, shading_normal) > 0.0) ? normalize(shading_normal) : N;
+    n = rm_direction(shading_normal);
+    if (dot(n, n) == 0.0)
+        n = N;
     wo = normalize(I);  // In Cycles OSL, I points toward the viewer.
 
-    vector tt = (dot(tangent, tangent) > 0.0) ? tangent : default_tangent;
+    vector tt = rm_direction(tangent);
+    if (dot(tt, tt) == 0.0)
+        tt = rm_direction(default_tangent);
     tt = tt - dot(tt, n) * n;
     if (dot(tt, tt) < 1e-12) {  // no tangent, or along the normal: any perpendicular
         vector axis = (abs(n[0]) < 0.9) ? vector(1.0, 0.0, 0.0) : vector(0.0, 1.0, 0.0);
@@ -350,15 +393,17 @@ void rm_begin(float point_light, vector light_direction, point light_position,
                               RM_COMMON_LIGHT_STRENGTH_MAX);
     float maxdist = 1e30;
     if (rm_clamp(point_light, 0.0, 1.0) >= 0.5) {
-        vector d = light_position - P;
+        point lp = rm_finite(light_position) ? light_position : point(0.0, 0.0, 5.0);
+        vector d = lp - P;
         float d2 = max(dot(d, d), 1e-12);
         maxdist = sqrt(d2);
         wi = d / maxdist;
         strength /= d2;
     }
     else {
-        wi = (dot(light_direction, light_direction) > 0.0) ? normalize(light_direction)
-                                                           : vector(0.0, 0.0, 1.0);
+        wi = rm_direction(light_direction);
+        if (dot(wi, wi) == 0.0)
+            wi = vector(0.0, 0.0, 1.0);
     }
     float visible = 1.0;
     float sh = rm_clamp(shadows, RM_COMMON_SHADOWS_MIN, RM_COMMON_SHADOWS_MAX);
