@@ -1,0 +1,576 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Bad input through real renders: every model shader, every numeric input.
+
+The rule (docs/compatibility.md): a value beyond an input's range renders
+**exactly** like the range's limit, NaN like the lower limit, and no render
+holds a NaN or infinite pixel.  Cycles silently drops a closure whose weight
+is NaN (the pixel turns black, not NaN), so every bad value is compared pixel
+for pixel with a render of its clamped value, not only checked for
+finiteness.  Vector inputs have no range: one that is zero or has a
+non-finite component is unset (light direction: +Z; normal: the surface
+normal; tangent: the UV tangent); a finite one counts by its direction only,
+whatever its length (2^+-100 scales compared with the unit vector).
+
+How values reach the shader
+---------------------------
+- **Runtime links**: every input of the shader is linked from a face
+  attribute (an Attribute node), so each tile of one render carries its own
+  values: NaN and +-inf arrive as they are (``test_attribute_link_carries_nan_and_inf``
+  proves it with a probe shader), and no optimiser can fold them.
+- **Constants**: a value typed into the socket, or a Value node linked to it
+  (Cycles folds that link into a constant; a Math node multiplying
+  -FLT_MAX/FLT_MAX by 2 gives -inf/+inf, which cannot be typed), one
+  material per case.
+
+The scene is the gonioreflectometer (``test_scenes.gonio``) with 144 tiles
+in a 12 x 12 grid, 8 pixels per cell, 1 sample: each grid row is one case,
+its left six tiles show the Direct (exact) output and the right six the BSDF
+(path-traced) output, over the same six normals: facing the sun, oblique,
+grazing (N.L = 0.017), lit from behind (N.L < 0), and two side-lit ones
+under a low sun (65 degrees from the camera axis) that makes tiles shadow
+each other.  Two renders per twelve cases: the bad values, then their
+clamped values; the whole image must be bit-identical.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from addon import catalogue
+from test_scenes import gonio
+
+NAN = float("nan")
+INF = float("inf")
+HUGE = 1e30
+FLT_MAX = float(np.finfo(np.float32).max)
+BIG = 2.0 ** 100  # an exact float32 scale for vectors
+SMALL = 2.0 ** -100
+
+GRID = 12          # tiles per row and rows per render
+PX = 8             # pixels per grid cell
+RES = GRID * PX
+NORMALS = (        # (tilt, azimuth) in degrees, away from the camera axis +Z
+    (0.0, 0.0),    # N.L = cos 65
+    (35.0, 20.0),  # facing the sun
+    (24.0, 200.0),  # grazing: N.L = cos 89
+    (70.0, 200.0),  # lit from behind: N.L = cos 135
+    (60.0, 110.0),
+    (60.0, 290.0),
+)
+SUN_POLAR, SUN_AZIMUTH = 65.0, 20.0
+LIGHT = np.array([math.sin(math.radians(SUN_POLAR)) * math.cos(math.radians(SUN_AZIMUTH)),
+                  math.sin(math.radians(SUN_POLAR)) * math.sin(math.radians(SUN_AZIMUTH)),
+                  math.cos(math.radians(SUN_POLAR))])
+LIGHT32 = tuple(float(x) for x in LIGHT.astype(np.float32))
+DEFAULT_POSITION = (0.0, 0.0, 5.0)
+CODES = {  # enum value -> integer code (its index in the catalogue's choices)
+    "normalization": {c: i for i, c in enumerate(("none", "energy"))},
+    "distribution": {c: i for i, c in enumerate(catalogue.DISTRIBUTIONS)},
+    "shadowing": {c: i for i, c in enumerate(catalogue.SHADOWINGS)},
+    "fresnel": {c: i for i, c in enumerate(catalogue.FRESNELS)},
+    "width_mode": {"beta": 0, "alpha": 1, "alpha_xy": 2},
+}
+
+
+# --------------------------------------------------------------------------
+# What is tested: model variants, their inputs and the bad values
+
+@dataclass(frozen=True)
+class Variant:
+    """One model shader with its structural (enum) inputs fixed."""
+    id: str
+    model: str
+    enums: dict = field(default_factory=dict)
+    params: tuple = ()  # the numeric parameters this variant uses
+    defaults: dict = field(default_factory=dict)  # overrides of catalogue defaults
+
+
+GOLD_N, GOLD_K = catalogue.METALS["gold"]
+
+VARIANTS = (
+    Variant("lambert", "lambert", {}, ("albedo",)),
+    Variant("phong", "phong", {"normalization": "energy"}, ("exponent", "ks")),
+    Variant("blinn_phong", "blinn_phong", {"normalization": "energy"}, ("exponent", "ks")),
+    Variant("kajiya_kay", "kajiya_kay", {}, ("kd", "ks", "exponent")),
+    Variant("ward", "ward", {}, ("alpha_x", "alpha_y", "ks")),
+    Variant("microfacet_alpha_conductor", "microfacet",
+            {"distribution": "beckmann", "shadowing": "smith", "fresnel": "conductor",
+             "width_mode": "alpha"}, ("alpha", "ior", "k", "ks"),
+            {"ior": GOLD_N, "k": GOLD_K, "alpha": 0.3}),
+    Variant("microfacet_alpha_xy_dielectric", "microfacet",
+            {"distribution": "trowbridge_reitz", "shadowing": "smith_correlated",
+             "fresnel": "dielectric", "width_mode": "alpha_xy"},
+            ("alpha_x", "alpha_y", "ior", "ks"), {"alpha_x": 0.4, "alpha_y": 0.1}),
+    Variant("microfacet_beta_gaussian_vgroove", "microfacet",
+            {"distribution": "gaussian", "shadowing": "vgroove", "fresnel": "dielectric",
+             "width_mode": "beta"}, ("beta", "ior")),
+    Variant("microfacet_beta_blinn_smith", "microfacet",
+            {"distribution": "blinn", "shadowing": "smith", "fresnel": "none",
+             "width_mode": "beta"}, ("beta",)),
+    Variant("microfacet_beta_beckmann_1967", "microfacet",
+            {"distribution": "beckmann", "shadowing": "smith_1967", "fresnel": "conductor",
+             "width_mode": "beta"}, ("beta", "k"), {"ior": GOLD_N, "k": GOLD_K}),
+)
+VARIANT_IDS = [v.id for v in VARIANTS]
+
+SCALAR_COMMON = ("point_light", "light_strength", "light_color", "shadows", "tangent_rotation")
+VECTOR_COMMON = ("light_direction", "light_position", "shading_normal", "tangent")
+COMMON = {p.name: p for p in catalogue.LIGHT_INPUTS + catalogue.GEOMETRY_INPUTS}
+
+
+@dataclass
+class Input:
+    name: str
+    kind: str        # 'VALUE', 'RGBA' or 'VECTOR' (the script node's socket type)
+    default: tuple   # a float, or 3 floats
+    lo: float | None = None
+    hi: float | None = None
+
+
+def variant_inputs(variant: Variant) -> dict:
+    """Every numeric input of the variant's shader: name -> Input."""
+    model = catalogue.MODELS[variant.model]
+    out = {}
+    for name in variant.params + SCALAR_COMMON:
+        p = model.param(name) if name in model.param_names else COMMON[name]
+        default = variant.defaults.get(name, p.default)
+        if p.kind == "color":
+            d = tuple(float(x) for x in np.broadcast_to(np.asarray(default, float), (3,)))
+            out[name] = Input(name, "RGBA", d, p.minimum, p.maximum)
+        else:
+            out[name] = Input(name, "VALUE", float(default), p.minimum, p.maximum)
+    out["light_direction"] = Input("light_direction", "VECTOR", LIGHT32)
+    out["light_position"] = Input("light_position", "VECTOR", DEFAULT_POSITION)
+    out["shading_normal"] = Input("shading_normal", "VECTOR", (0.0, 0.0, 0.0))
+    out["tangent"] = Input("tangent", "VECTOR", (0.0, 0.0, 0.0))
+    return out
+
+
+@dataclass
+class Case:
+    """Values of some inputs (the others keep their defaults) and the values
+    that must render identically (``ref``; None: only finiteness is checked).
+    A value may be a function of the tile's (normal, tangent)."""
+    label: str
+    values: dict
+    ref: dict | None
+    tol: float = 0.0  # 0: bit-identical; else relative to the row's peak
+    reason: str = ""
+
+
+def _clamp(x, lo, hi):
+    if math.isnan(x):
+        return lo
+    return min(max(x, lo), hi)
+
+
+def below_values(lo):
+    """Values under a lower limit lo (NaN included: it maps to lo)."""
+    vals = [-1.0, -HUGE, -INF, NAN]
+    if lo > 0.0:
+        vals = [0.0] + vals
+    return [v for v in vals if v < lo or math.isnan(v)]
+
+
+def above_values(hi):
+    vals = [hi * 2.0 if hi > 0 else 1.0, HUGE, INF]
+    return [v for v in vals if v > hi]
+
+
+def scalar_cases(inp: Input, extra_below=(), extra_above=()):
+    cases = []
+    for v in list(extra_below) + below_values(inp.lo) + list(extra_above) + above_values(inp.hi):
+        c = _clamp(v, inp.lo, inp.hi)
+        if inp.kind == "RGBA":
+            cases.append(Case(f"{inp.name}={v!r}", {inp.name: (v, v, v)}, {inp.name: (c, c, c)}))
+        else:
+            cases.append(Case(f"{inp.name}={v!r}", {inp.name: v}, {inp.name: c}))
+    if inp.kind == "RGBA":  # one bad channel, the others valid
+        for ch, v in ((0, NAN), (1, -INF), (2, INF), (1, -1.0)):
+            bad, ref = list(inp.default), list(inp.default)
+            bad[ch], ref[ch] = v, _clamp(v, inp.lo, inp.hi)
+            cases.append(Case(f"{inp.name}[{ch}]={v!r}", {inp.name: tuple(bad)},
+                              {inp.name: tuple(ref)}))
+    return cases
+
+
+def _perpendicular_fallback(n):
+    """The perpendicular rm_begin picks when the tangent is unusable."""
+    n = np.asarray(n, float)
+    axis = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t = axis - axis.dot(n) * n
+    return tuple(t / np.linalg.norm(t))
+
+
+def _turned_tangent(n, t, degrees=30.0):
+    """The tile tangent turned about the normal: unlike the UV tangent."""
+    a = math.radians(degrees)
+    n, t = np.asarray(n, float), np.asarray(t, float)
+    return tuple(np.float32(math.cos(a) * t + math.sin(a) * np.cross(n, t)).astype(float))
+
+
+def _f32(v):
+    return tuple(float(x) for x in np.asarray(v, np.float32))
+
+
+def vector_cases(variant: Variant):
+    fibre = catalogue.MODELS[variant.model].kind == "fibre"
+    L = LIGHT32
+    cases = [
+        Case("light_direction=0", {"light_direction": (0.0, 0.0, 0.0)},
+             {"light_direction": (0.0, 0.0, 1.0)}),
+        Case("light_direction=nan", {"light_direction": (NAN, NAN, NAN)},
+             {"light_direction": (0.0, 0.0, 1.0)}),
+        Case("light_direction=(nan,L)", {"light_direction": (NAN, L[1], L[2])},
+             {"light_direction": (0.0, 0.0, 1.0)}),
+        Case("light_direction=(inf,0,0)", {"light_direction": (INF, 0.0, 0.0)},
+             {"light_direction": (0.0, 0.0, 1.0)}),
+        Case("light_direction=(-inf,L)", {"light_direction": (-INF, L[1], L[2])},
+             {"light_direction": (0.0, 0.0, 1.0)}),
+        Case("light_direction=L*2^100", {"light_direction": tuple(x * BIG for x in L)},
+             {"light_direction": L}),
+        Case("light_direction=L*2^-100", {"light_direction": tuple(x * SMALL for x in L)},
+             {"light_direction": L}),
+        Case("light_direction=-L (from below)", {"light_direction": tuple(-x for x in L)}, None),
+        Case("point light, position=nan",
+             {"point_light": 1.0, "light_position": (NAN, 0.0, 5.0)},
+             {"point_light": 1.0, "light_position": DEFAULT_POSITION}),
+        Case("point light, position=(0,0,inf)",
+             {"point_light": 1.0, "light_position": (0.0, 0.0, INF)},
+             {"point_light": 1.0, "light_position": DEFAULT_POSITION}),
+        Case("point light, position=(0,0,1e30): irradiance 0",
+             {"point_light": 1.0, "light_position": (0.0, 0.0, HUGE)},
+             {"point_light": 1.0, "light_strength": 0.0}),
+        Case("point light, position on a tile", {"point_light": 1.0,
+                                                 "light_position": (0.0, 0.0, 0.0)}, None),
+        Case("shading_normal=nan", {"shading_normal": (NAN, NAN, NAN)},
+             {"shading_normal": (0.0, 0.0, 0.0)}),
+        Case("shading_normal=(inf,0,0)", {"shading_normal": (INF, 0.0, 0.0)},
+             {"shading_normal": (0.0, 0.0, 0.0)}),
+        Case("shading_normal=N*2^100", {"shading_normal": lambda n, t: _f32(np.multiply(_f32(n), BIG))},
+             {"shading_normal": lambda n, t: _f32(n)}),
+        Case("shading_normal=N*2^-100", {"shading_normal": lambda n, t: _f32(np.multiply(_f32(n), SMALL))},
+             {"shading_normal": lambda n, t: _f32(n)}),
+        Case("shading_normal=-N (back-facing)", {"shading_normal": lambda n, t: _f32(-np.asarray(n))},
+             None),
+        Case("tangent=nan", {"tangent": (NAN, NAN, NAN)}, {"tangent": (0.0, 0.0, 0.0)}),
+        Case("tangent=(0,-inf,0)", {"tangent": (0.0, -INF, 0.0)}, {"tangent": (0.0, 0.0, 0.0)}),
+        Case("tangent=T'*2^100", {"tangent": lambda n, t: tuple(x * BIG for x in _turned_tangent(n, t))},
+             {"tangent": lambda n, t: _turned_tangent(n, t)}),
+        Case("tangent=T'*2^-100", {"tangent": lambda n, t: tuple(x * SMALL for x in _turned_tangent(n, t))},
+             {"tangent": lambda n, t: _turned_tangent(n, t)}),
+    ]
+    if fibre:
+        cases.append(Case("tangent along the normal (a fibre standing up)",
+                          {"tangent": lambda n, t: _f32(n)}, None))
+    else:
+        cases.append(Case(
+            "tangent along the normal", {"tangent": lambda n, t: _f32(2.0 * np.asarray(n))},
+            {"tangent": lambda n, t: _f32(_perpendicular_fallback(n))}, tol=1e-6,
+            reason="the shader's own perpendicular and the same vector computed here in "
+                   "float64 then rounded differ in the last bit of the tangent"))
+    return cases
+
+
+def variant_cases(variant: Variant):
+    inputs = variant_inputs(variant)
+    cases = []
+    for name in variant.params + SCALAR_COMMON:
+        inp = inputs[name]
+        extra_below, extra_above = (), ()
+        if name == "beta":
+            extra_below, extra_above = (0.0,), (math.pi / 2,)  # 0 and 90 degrees
+        for case in scalar_cases(inp, extra_below, extra_above):
+            if name == "point_light":  # a point light also needs its position
+                pass
+            cases.append(case)
+    cases += vector_cases(variant)
+    # the limits themselves must render finite (they are the references)
+    return cases
+
+
+# --------------------------------------------------------------------------
+# The scene: one tile grid, materials with every input linked
+
+def _tiles():
+    base = []
+    for tilt, az in NORMALS:
+        base.append(gonio.hemisphere_tiles((tilt,), (az,), twist_deg=25.0)[0])
+    row = base + base  # Direct | BSDF
+    return row * GRID
+
+
+def _new_material(bpy, name):
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0):
+        mat.use_nodes = True
+    tree = mat.node_tree
+    for node in list(tree.nodes):
+        tree.nodes.remove(node)
+    mat.cycles.emission_sampling = 'NONE'
+    return mat, tree, tree.nodes.new("ShaderNodeOutputMaterial")
+
+
+def _attribute_node(tree, name):
+    node = tree.nodes.new("ShaderNodeAttribute")
+    node.attribute_type = 'GEOMETRY'
+    node.attribute_name = name
+    return node
+
+
+ATTR_OUTPUT = {"VALUE": "Fac", "RGBA": "Color", "VECTOR": "Vector"}
+ATTR_TYPE = {"VALUE": ('FLOAT', "value", 1), "RGBA": ('FLOAT_COLOR', "color", 4),
+             "VECTOR": ('FLOAT_VECTOR', "vector", 3)}
+
+
+def attr_name(input_name):
+    return "rm_" + input_name
+
+
+def _script_node(tree, variant):
+    from addon import oslutil
+
+    node = oslutil.make_script_node(tree, "rm_" + variant.model)
+    for key, value in variant.enums.items():
+        node.inputs[key].default_value = CODES[key][value]
+    tangent = tree.nodes.new("ShaderNodeTangent")
+    tangent.direction_type = 'UV_MAP'
+    tangent.uv_map = "UVMap"
+    tree.links.new(tangent.outputs[0], node.inputs["default_tangent"])
+    return node
+
+
+def _select_output(tree, node, out):
+    """Mix Direct (attribute rm_output = 0) and BSDF (= 1) per tile."""
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(_attribute_node(tree, "rm_output").outputs["Fac"], mix.inputs[0])
+    tree.links.new(node.outputs["Direct"], mix.inputs[1])
+    tree.links.new(node.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
+
+
+def _set_socket(socket, kind, value):
+    if kind == "RGBA":
+        socket.default_value = (*value, 1.0)
+    elif kind == "VECTOR":
+        socket.default_value = value
+    else:
+        socket.default_value = value
+
+
+def link_attribute(tree, socket, name, kind):
+    """Link the face attribute ``name`` to ``socket``.  A float is read as
+    the X of the Vector output: the Fac output is (x + x + x) * 0.33333334,
+    which is not always x."""
+    attr = _attribute_node(tree, name)
+    if kind == "VALUE":
+        sep = tree.nodes.new("ShaderNodeSeparateXYZ")
+        tree.links.new(attr.outputs["Vector"], sep.inputs[0])
+        tree.links.new(sep.outputs["X"], socket)
+    else:
+        tree.links.new(attr.outputs[ATTR_OUTPUT[kind]], socket)
+
+
+def linked_material(bpy, variant):
+    """Every numeric input linked from the face attribute rm_<input>."""
+    mat, tree, out = _new_material(bpy, "rob_link_" + variant.id)
+    node = _script_node(tree, variant)
+    for inp in variant_inputs(variant).values():
+        link_attribute(tree, node.inputs[inp.name], attr_name(inp.name), inp.kind)
+    _select_output(tree, node, out)
+    return mat
+
+
+class Bench:
+    """The tile grid and the renders."""
+
+    def __init__(self, bpy):
+        self.bpy = bpy
+        self.g = gonio.build_gonio_scene(None, light_dir=LIGHT, resolution=RES, tiles=_tiles(),
+                                         osl=True, name="robustness")
+        assert self.g.ortho_scale == GRID
+        # Keep the compiled shaders between renders: only the attributes change
+        # (a render then takes ~20 ms instead of ~0.5 s of OSL optimisation).
+        self.g.scene.render.use_persistent_data = True
+        self.mesh = self.g.tiles_object.data
+        self.normals = [t.normal for t in self.g.tiles]
+        self.tangents = [t.tangent for t in self.g.tiles]
+        self.set_output("Direct")
+        # every tile is seen by at least one pixel
+        for k in range(GRID * GRID):
+            assert np.any(self.g.tile_index == k), k
+        self.renders = 0
+        self.seconds = 0.0
+
+    def _attribute(self, name, kind, data):
+        type_, prop, width = ATTR_TYPE[kind]
+        attr = self.mesh.attributes.get(name)
+        if attr is None:
+            attr = self.mesh.attributes.new(name, type_, 'FACE')
+        data = np.asarray(data, np.float32).reshape(len(self.mesh.polygons), -1)
+        if width == 4:
+            data = np.concatenate([data, np.ones((len(data), 1), np.float32)], axis=1)
+        attr.data.foreach_set(prop, data.ravel())
+
+    def set_output(self, output):
+        """Show the Direct or the BSDF output on every tile.  (Both in one
+        render, emitting Direct tiles changed single BSDF pixels of other
+        rows: never mix them.)"""
+        self.output = output
+        value = {"Direct": 0.0, "BSDF": 1.0}[output]
+        self._attribute("rm_output", "VALUE", np.full(GRID * GRID, value))
+        self.mesh.update()
+
+    def set_materials(self, materials, per_tile):
+        """Materials in the mesh's slots; per_tile[k] is tile k's slot."""
+        self.mesh.materials.clear()
+        for m in materials:
+            self.mesh.materials.append(m)
+        self.mesh.polygons.foreach_set("material_index", np.asarray(per_tile, np.int32))
+        self.mesh.update()
+
+    def set_rows(self, inputs, rows):
+        """Face attributes for each input: row r's tiles get rows[r] (a dict
+        of values; missing inputs keep their defaults)."""
+        for inp in inputs.values():
+            width = 1 if inp.kind == "VALUE" else 3
+            data = np.empty((GRID * GRID, width), np.float64)
+            for k in range(GRID * GRID):
+                values = rows[k // GRID] if k // GRID < len(rows) else {}
+                v = values.get(inp.name, inp.default)
+                if callable(v):
+                    v = v(self.normals[k], self.tangents[k])
+                data[k] = v
+            self._attribute(attr_name(inp.name), inp.kind, data)
+        self.mesh.update()
+
+    def render(self):
+        t0 = time.perf_counter()
+        img = self.g.render()
+        self.seconds += time.perf_counter() - t0
+        self.renders += 1
+        return img
+
+
+@pytest.fixture(scope="module")
+def bench(bpy):
+    b = Bench(bpy)
+    yield b
+    print(f"\nrobustness: {b.renders} renders, {b.seconds:.1f} s rendering")
+
+
+def _row(img, r):
+    return img[r * PX:(r + 1) * PX]
+
+
+def check_rows(bad_img, ref_img, cases, where):
+    """Every row of the bad render equals the reference's (bit for bit, or
+    within the case's tolerance); no pixel is NaN or infinite."""
+    problems = []
+    for name, img in (("bad", bad_img), ("reference", ref_img)):
+        if not np.isfinite(img).all():
+            rows = sorted({int(r) // PX for r in np.argwhere(~np.isfinite(img))[:, 0]})
+            problems.append(f"{where}: non-finite pixels in the {name} render, cases "
+                            + ", ".join(cases[r].label for r in rows if r < len(cases)))
+    if len(cases) < GRID:  # unused rows hold the defaults in both renders
+        if not np.array_equal(bad_img[len(cases) * PX:], ref_img[len(cases) * PX:]):
+            problems.append(f"{where}: rows without a case differ")
+    for r, case in enumerate(cases):
+        if case.ref is None:
+            continue
+        a, b = _row(bad_img, r), _row(ref_img, r)
+        if case.tol == 0.0:
+            ok = np.array_equal(a, b)
+        else:
+            peak = max(float(np.abs(b).max()), 1e-30)
+            ok = bool(np.all(np.abs(a.astype(np.float64) - b) <= case.tol * peak))
+        if not ok:
+            diff = np.abs(a.astype(np.float64) - b)
+            cols = sorted({int(c) // PX for c in np.argwhere(diff > 0)[:, 1]})
+            problems.append(
+                f"{where}: {case.label}: {int((diff > 0).any(-1).sum())} pixels unlike the "
+                f"clamped value (tiles {cols} of the row), max |diff| {diff.max():.3g}, "
+                f"bad max {np.nanmax(a):.4g} vs clamped max {b.max():.4g}")
+    return problems
+
+
+def render_linked_cases(bench, variant, cases):
+    """Render the cases 12 at a time through the attribute links; return
+    the problems found."""
+    bpy = bench.bpy
+    mat = linked_material(bpy, variant)
+    bench.set_materials([mat], [0] * (GRID * GRID))
+    inputs = variant_inputs(variant)
+    problems = []
+    nonzero = {"Direct": 0, "BSDF": 0}
+    for start in range(0, len(cases), GRID):
+        chunk = cases[start:start + GRID]
+        for output in ("Direct", "BSDF"):
+            bench.set_output(output)
+            bench.set_rows(inputs, [c.values for c in chunk])
+            bad = bench.render()
+            bench.set_rows(inputs, [c.ref if c.ref is not None else {} for c in chunk])
+            ref = bench.render()
+            problems += check_rows(bad, ref, chunk, f"{variant.id} {output}")
+            nonzero[output] += sum(bool(np.any(_row(ref, r) > 0)) for r in range(len(chunk)))
+    bench.set_output("Direct")
+    bpy.data.materials.remove(mat)
+    return problems, nonzero
+
+
+# --------------------------------------------------------------------------
+# Tests
+
+PROBE = """
+#include "stdcycles.h"
+shader rm_probe(float x = 0.0, color c = 0, vector w = 0, output closure color Out = 0)
+{
+    float r = isnan(x) ? 1.0 : (isinf(x) ? (x > 0.0 ? 0.75 : 0.5) : 0.0);
+    float g = isnan(c[1]) ? 1.0 : (isinf(c[1]) ? (c[1] > 0.0 ? 0.75 : 0.5) : 0.0);
+    float b = isnan(w[2]) ? 1.0 : (isinf(w[2]) ? (w[2] > 0.0 ? 0.75 : 0.5) : 0.0);
+    Out = color(r, g, b) * emission();
+}
+"""
+
+
+def test_attribute_link_carries_nan_and_inf(bench, tmp_path):
+    """The harness itself: NaN, +inf and -inf reach an OSL parameter through
+    a face-attribute link unchanged (else the tests below would be vacuous)."""
+    from addon import oslutil
+
+    bpy = bench.bpy
+    (tmp_path / "rm_probe.osl").write_text(PROBE)
+    mat, tree, out = _new_material(bpy, "rob_probe")
+    node = oslutil.make_script_node(tree, "rm_probe", search_dir=tmp_path)
+    probe_inputs = {"x": Input("x", "VALUE", 0.0), "c": Input("c", "RGBA", (0.0, 0.0, 0.0)),
+                    "w": Input("w", "VECTOR", (0.0, 0.0, 0.0))}
+    for inp in probe_inputs.values():
+        link_attribute(tree, node.inputs[inp.name], attr_name(inp.name), inp.kind)
+    tree.links.new(node.outputs["Out"], out.inputs["Surface"])
+    bench.set_materials([mat], [0] * (GRID * GRID))
+    values = [NAN, INF, -INF, HUGE, 0.0]
+    expect = [1.0, 0.75, 0.5, 0.0, 0.0]
+    # twice, in another order: new attribute values reach a persistent render
+    for order in (values, values[::-1]):
+        rows = [{"x": v, "c": (0.0, v, 0.0), "w": (0.0, 0.0, v)} for v in order]
+        bench.set_rows(probe_inputs, rows)
+        img = bench.render()
+        for r, v in enumerate(order):
+            lit = _row(img, r)[bench.g.inside[r * PX:(r + 1) * PX]]
+            assert lit.size and np.all(lit == expect[values.index(v)]), (v, np.unique(lit))
+    bpy.data.materials.remove(mat)
+
+
+@pytest.mark.parametrize("variant", VARIANTS, ids=VARIANT_IDS)
+def test_bad_values_through_links_render_like_the_limit(bench, variant):
+    cases = variant_cases(variant)
+    problems, nonzero = render_linked_cases(bench, variant, cases)
+    print(f"{variant.id}: {len(cases)} cases, non-black references: {nonzero}")
+    assert not problems, "\n".join(problems)
+    for output, count in nonzero.items():  # not all black on black
+        assert count >= len(cases) // 2, (output, count)
