@@ -872,18 +872,32 @@ def hair_lock(n=150, seed=3):
     return strands
 
 
+HAIR_DEMO_SUN = (0.3, 0.5, 0.8)
+
+
+def hair_band_expected_y():
+    """Height of the highlight band on :func:`hair_lock` seen from +Z:
+    T ~ (0, 1, dz/dy) = (0, 1, -0.7 y) (waves aside), T.H = 0 at
+    y = H_y / (0.7 H_z)."""
+    H = common.normalize(common.normalize(HAIR_DEMO_SUN) + np.array([0.0, 0.0, 1.0]))
+    return float(H[1] / (0.7 * H[2]))
+
+
 def hair_demo(out_dir, *, resolution=(120, 120)):
-    """Black and brown hair (Kajiya-Kay exact, presets KK_BLACK / KK_BROWN)
-    on a lock of wavy strands; writes PNGs and returns their paths."""
+    """Black and brown hair (Kajiya-Kay exact, presets KK_BLACK / KK_BROWN,
+    shadows on) on a lock of wavy strands; writes PNGs.  Returns
+    ``(paths, numbers)``: the measured height of the highlight band (the row
+    of largest mean brightness over the hair pixels, black hair) against
+    :func:`hair_band_expected_y`, and the render time."""
     view = np.array([0.0, 0.0, 1.0])
-    sun = common.normalize((0.3, 0.5, 0.8))  # band near y = 0.28
-    paths = {}
+    sun = common.normalize(HAIR_DEMO_SUN)
+    ortho = 2.0
+    paths, imgs = {}, {}
     seconds = 0.0
     for name, params in (("black", KK_BLACK), ("brown", KK_BROWN)):
-        scene, _ = _scene(f"aniso_hair_{name}", view_dir=view, ortho_scale=2.0,
+        scene, _ = _scene(f"aniso_hair_{name}", view_dir=view, ortho_scale=ortho,
                           resolution=resolution)
         scene.cycles_curves.shape = 'THICK'
-        common.set_world_background(scene, 0.0)
         mat, _ = make_material(f"hair_{name}", "kajiya_kay", params, output="Direct",
                                light={"light_direction": sun, "shadows": 1.0,
                                       "light_strength": 2.0},
@@ -892,10 +906,18 @@ def hair_demo(out_dir, *, resolution=(120, 120)):
                                                                0.012), mat)
         img, s = _render(scene)
         seconds += s
-        bg = np.array([0.55, 0.6, 0.65])
+        imgs[name] = img
         paths[name] = write_png(os.path.join(out_dir, f"hair_{name}.png"), img,
-                                scale=1.0, background=bg)
-    return paths, seconds
+                                scale=1.0, background=np.array([0.55, 0.6, 0.65]))
+    img = imgs["black"]
+    lum = img.mean(-1)
+    hair = lum > 0
+    rows = np.where(hair.sum(1) >= 5, (lum * hair).sum(1) / np.maximum(hair.sum(1), 1), 0.0)
+    j = int(np.argmax(rows))
+    h = resolution[1]
+    band_y = (h / 2.0 - j - 0.5) * ortho / resolution[0]
+    return paths, {"band_y": band_y, "band_y_expected": hair_band_expected_y(),
+                   "pixel": ortho / resolution[0], "render_seconds": seconds}
 
 
 # --------------------------------------------------------------------------
@@ -1041,11 +1063,14 @@ def figures(out_dir):
                                  r["diffuse_plus_specular_vs_color"] <= 1e-5,
                                  f"{r['diffuse_plus_specular_vs_color']:.2e}", "<= 1e-5 of peak"),
                  "numbers": r})
-    paths, s = hair_demo(out_dir)
+    paths, nums = hair_demo(out_dir)
+    err = abs(nums["band_y"] - nums["band_y_expected"])
     for name, p in paths.items():
         figs.append({"name": f"hair_{name}", "image_path": p,
-                     "check": _check(f"{name} hair demo rendered", os.path.exists(p),
-                                     "rendered", "an image"), "numbers": {"render_seconds": s}})
-    for f in figs:
-        f.setdefault("numbers", {})
+                     "check": _check(f"{name} hair: Kajiya-Kay highlight band where the strands "
+                                     "cross the mirror cone", err <= 0.05,
+                                     f"band at y = {nums['band_y']:.3f}",
+                                     f"y = {nums['band_y_expected']:.3f} +- 0.05 (3 pixels: "
+                                     "waves and shadows move it)"),
+                     "numbers": nums})
     return figs

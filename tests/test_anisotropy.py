@@ -10,6 +10,7 @@ Small images: the whole module takes ~15 s on 2 cores.
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -127,6 +128,15 @@ def test_hair_curves_kajiya_kay(bpy):
     assert r["diffuse_plus_specular_vs_color"] <= 1e-5
     # the brightest strand is the one nearest the mirror cone
     assert r["highlight_T_dot_H"] == r["min_T_dot_H_over_strands"]
+
+
+def test_hair_demo_highlight_band(bpy, tmp_path):
+    paths, nums = A.hair_demo(str(tmp_path))
+    _show("hair demo", nums)
+    assert all(Path(p).is_file() for p in paths.values())
+    # the band sits where the strands cross the mirror cone; 3 pixels for
+    # the waves (they tilt T) and the strands' shadows (measured: 0.6 px)
+    assert abs(nums["band_y"] - nums["band_y_expected"]) <= 3 * nums["pixel"]
 
 
 def test_path_traced_modes_measured(bpy):
