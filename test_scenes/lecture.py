@@ -80,7 +80,7 @@ class Plot:
         self.items = []
         self.legend = []
         self.axes = axes
-        self.legend_at = legend  # "top" or "bottom" (right-aligned either way)
+        self.legend_at = legend  # "top", "bottom" (right-aligned) or "topleft"
         if equal:  # one unit is as long along x as along y
             pw = self.w - self.m[0] - self.m[1]
             sx = pw / (xlim[1] - xlim[0])
@@ -184,9 +184,11 @@ class Plot:
         out.append(f'<g clip-path="url(#{clip})">')
         out.extend(self.items)
         out.append('</g>')
-        y = mt + 12 if self.legend_at == "top" else h - mb - 8 - 14 * (len(self.legend) - 1)
+        y = mt + 12 if self.legend_at != "bottom" else h - mb - 8 - 14 * (len(self.legend) - 1)
         for label, color, dash, kind in self.legend:
             x = w - mr - 8
+            if self.legend_at == "topleft":
+                x = ml + 8 + 26 + max((len(lb) for lb, *_ in self.legend), default=0) * 6
             out.append(f'<text x="{x - 26}" y="{y + 4}" text-anchor="end">{html.escape(label)}</text>')
             if kind == "line":
                 d = f' stroke-dasharray="{dash}"' if dash else ""
@@ -577,7 +579,8 @@ def fig_torrance_sparrow(fast=False):
     svgs, peaks = [], {}
     for name in TS_MATERIALS:
         plot = Plot(f"Torrance-Sparrow, {name}: f_r cos(theta_r)", "theta_r (deg)",
-                    "f_r cos theta_r / its value at the mirror", (-90, 90), (0, 2.5), width=470)
+                    "f_r cos theta_r / its value at the mirror", (-90, 90), (0, 2.5), width=470,
+                    legend="topleft")
         for k, ti in enumerate(TS_INCIDENCES_DEG):
             tr = np.arange(-89.9, 89.95, 0.1) * DEG
             f = R.brdf("torrance_sparrow", _light(ti * DEG), _in_plane(tr), beta=TS_BETA,
@@ -706,12 +709,9 @@ def fig_torrance_sparrow_render(fast=False, theta_i_deg=80.0):
     values = {name: img[1 + row, :, 1].astype(float)  # green: the 0.5 um channel
               for row, name in enumerate(TS_MATERIALS)}
     groups = TS_MATERIALS
-    plot = Plot(f"Rendered (exact mode) vs reference, theta_i = {theta_i_deg:g} deg",
-                "theta_r (deg)", "f_r cos theta_r (1/sr)", (60, 90), (0, 1.0), width=520)
-    rows, worst = [], 0.0
+    rows, worst, curves = [], 0.0, []
     dense = np.linspace(60.0, 89.99, 3000) * DEG
-    ymax = 0.0
-    for k, name in enumerate(groups):
+    for name in groups:
         f_ref = R.brdf("torrance_sparrow", _light(ti), _in_plane(dense), beta=TS_BETA,
                        **TS_MATERIALS[name])[:, 0] * np.cos(dense)
         # a pixel is f_r cos(theta_i); times cos(theta_r)/cos(theta_i) it is f_r cos(theta_r)
@@ -719,13 +719,18 @@ def fig_torrance_sparrow_render(fast=False, theta_i_deg=80.0):
         expect = R.brdf("torrance_sparrow", _light(ti), _in_plane(trs * DEG), beta=TS_BETA,
                         **TS_MATERIALS[name])[:, 0] * np.cos(trs * DEG)
         worst = max(worst, float(np.max(np.abs(rendered - expect)) / expect.max()))
-        ymax = max(ymax, float(f_ref.max()), float(rendered.max()))
-        plot.line(dense / DEG, f_ref, color=COLORS[k], label=f"{name}, reference")
-        plot.points(trs[::max(1, len(trs) // 60)], rendered[::max(1, len(trs) // 60)], color=COLORS[k], label=f"{name}, render", r=2.5, hollow=True)
-        kk = int(np.argmax(rendered))
-        rows.append((name, float(trs[kk]), float(trs[int(np.argmax(expect))]),
+        curves.append((name, f_ref, rendered))
+        rows.append((name, float(trs[int(np.argmax(rendered))]), float(trs[int(np.argmax(expect))]),
                      float(dense[np.argmax(f_ref)] / DEG)))
-    plot.ylim = (0.0, 1.1 * ymax)
+    ymax = max(max(float(c[1].max()), float(c[2].max())) for c in curves)
+    plot = Plot(f"Rendered (exact mode) vs reference, theta_i = {theta_i_deg:g} deg",
+                "theta_r (deg)", "f_r cos theta_r (1/sr)", (60, 90), (0, 1.1 * ymax), width=520,
+                legend="topleft")
+    every = max(1, len(trs) // 60)  # at most ~60 markers per curve
+    for k, (name, f_ref, rendered) in enumerate(curves):
+        plot.line(dense / DEG, f_ref, color=COLORS[k], label=f"{name}, reference")
+        plot.points(trs[::every], rendered[::every], color=COLORS[k], label=f"{name}, render",
+                    r=2.5, hollow=True)
     plot.vline(theta_i_deg, color="#444")
     plot.text(theta_i_deg + 0.3, 0.05 * ymax, "mirror", size=10)
     total = time.perf_counter() - t0
