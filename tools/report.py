@@ -174,14 +174,15 @@ def verdict(p):
 def summary_table(entries):
     """A plain-text table of report entries (dicts without images)."""
     lines = [f"{'model':18s} {'variant':52s} {'mode':11s} {'status':7s} {'max rel':>9s} "
-             f"{'rms rel':>9s} {'tol':>8s}  result"]
+             f"{'rms rel':>9s} {'|d|/peak':>9s} {'tol':>8s}  result"]
     for e in entries:
         if e["mode"] == "furnace":
             err, rms = f"A={e['max_albedo']:.3f}", ""
         else:
             err, rms = fmt(e["max_rel_error"]), fmt(e["rms_rel_error"])
+        peak = fmt(e["max_abs_over_peak"]) if "max_abs_over_peak" in e else ""
         lines.append(f"{e['model']:18.18s} {e['variant']:52.52s} {e['mode']:11s} "
-                     f"{e.get('status', ''):7s} {err:>9s} {rms:>9s} "
+                     f"{e.get('status', ''):7s} {err:>9s} {rms:>9s} {peak:>9s} "
                      f"{fmt(e['tolerance'], '.0e') if e['mode'] != 'furnace' else fmt(e['tolerance'], '.3f'):>8s}"
                      f"  {verdict(e['pass'])}")
     return "\n".join(lines)
@@ -220,7 +221,7 @@ def write_html(path, *, entries, case_images, gallery_png, gallery_labels, polar
                  + "</p>")
     h.append("<h2>Summary</h2><table><tr><th>model</th><th>variant</th><th>mode</th>"
              "<th>path-traced status</th><th>max rel error</th><th>rms rel error</th>"
-             "<th>tolerance</th><th>result</th></tr>")
+             "<th>max |Δ| / peak</th><th>tolerance</th><th>result</th></tr>")
     for e in entries:
         if e["mode"] == "furnace":
             err = f"max albedo {e['max_albedo']:.4f}"
@@ -229,9 +230,10 @@ def write_html(path, *, entries, case_images, gallery_png, gallery_labels, polar
         else:
             err, rms, tol = fmt(e["max_rel_error"]), fmt(e["rms_rel_error"]), fmt(e["tolerance"], ".0e")
         v = verdict(e["pass"])
+        peak = fmt(e["max_abs_over_peak"]) if "max_abs_over_peak" in e else ""
         h.append(f"<tr><td>{html.escape(e['model'])}</td><td>{html.escape(e['variant'])}</td>"
                  f"<td>{e['mode']}</td><td>{e.get('status', '')}</td><td>{err}</td><td>{rms}</td>"
-                 f"<td>{tol}</td><td class='{v}'>{v}</td></tr>")
+                 f"<td>{peak}</td><td>{tol}</td><td class='{v}'>{v}</td></tr>")
     h.append("</table>")
     h.append("<h2>Lobes in the plane of incidence (addon.reference)</h2>")
     h.append("<p class='small'>Radiance f·cos θi toward θo, each curve scaled to its maximum; "
