@@ -406,6 +406,7 @@ class Bench:
             assert np.any(self.g.tile_index == k), k
         self.renders = 0
         self.seconds = 0.0
+        self.times = []
 
     def _attribute(self, name, kind, data):
         type_, prop, width = ATTR_TYPE[kind]
@@ -434,6 +435,10 @@ class Bench:
         self.mesh.polygons.foreach_set("material_index", np.asarray(per_tile, np.int32))
         self.mesh.update()
 
+    def set_indices(self, per_tile):
+        self.mesh.polygons.foreach_set("material_index", np.asarray(per_tile, np.int32))
+        self.mesh.update()
+
     def set_rows(self, inputs, rows):
         """Face attributes for each input: row r's tiles get rows[r] (a dict
         of values; missing inputs keep their defaults)."""
@@ -454,6 +459,7 @@ class Bench:
         img = self.g.render()
         self.seconds += time.perf_counter() - t0
         self.renders += 1
+        self.times.append(time.perf_counter() - t0)
         return img
 
 
@@ -462,6 +468,7 @@ def bench(bpy):
     b = Bench(bpy)
     yield b
     print(f"\nrobustness: {b.renders} renders, {b.seconds:.1f} s rendering")
+    print("slowest renders (s):", sorted(np.round(b.times, 2))[-8:])
 
 
 def _row(img, r):
@@ -574,3 +581,291 @@ def test_bad_values_through_links_render_like_the_limit(bench, variant):
     assert not problems, "\n".join(problems)
     for output, count in nonzero.items():  # not all black on black
         assert count >= len(cases) // 2, (output, count)
+
+
+# --------------------------------------------------------------------------
+# Constants through the node groups: typed values and Value/Math-node links
+
+def _api(bpy):
+    from addon import api, nodes
+    return api, nodes
+
+
+def _add_params(variant):
+    """add_model keyword arguments of a variant: enum values and its width."""
+    params = {k: v for k, v in variant.enums.items() if k != "width_mode"}
+    width = variant.enums.get("width_mode")
+    names = {"beta": ("beta",), "alpha": ("alpha",), "alpha_xy": ("alpha_x", "alpha_y"),
+             None: ()}[width]
+    model = catalogue.MODELS[variant.model]
+    for name in names + tuple(k for k in variant.defaults if k not in names):
+        params[name] = variant.defaults.get(name, model.param(name).default)
+    return params
+
+
+def group_material(bpy, variant, name):
+    """A material with the variant's group (api.add_model), its Direct and
+    BSDF outputs mixed by the attribute rm_output; returns (material, node)."""
+    api, nodes = _api(bpy)
+    mat, tree, out = _new_material(bpy, name)
+    node = api.add_model(mat, variant.model, mode="exact", **_add_params(variant))
+    mat.cycles.emission_sampling = 'NONE'
+    nodes.input_socket(node, "light_direction").default_value = LIGHT32
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    tree.links.new(_attribute_node(tree, "rm_output").outputs["Fac"], mix.inputs[0])
+    tree.links.new(nodes.output_socket(node, "Direct"), mix.inputs[1])
+    tree.links.new(nodes.output_socket(node, "BSDF"), mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
+    return mat, node
+
+
+def _feed(tree, socket, how, value):
+    """Give ``socket`` the scalar ``value``: typed, or linked from a Value
+    node, or (for +-inf, which cannot be typed) from a Math node
+    multiplying +-FLT_MAX by 2."""
+    kind = socket.type
+    if how == "typed":
+        if kind == "RGBA":
+            socket.default_value = (value, value, value, 1.0)
+        elif kind == "VECTOR":
+            socket.default_value = value
+        else:
+            socket.default_value = value
+        return
+    if how == "value":
+        src = tree.nodes.new("ShaderNodeValue")
+        src.outputs[0].default_value = value
+        out = src.outputs[0]
+    elif how == "math":
+        src = tree.nodes.new("ShaderNodeMath")
+        src.operation = 'MULTIPLY'
+        src.inputs[0].default_value = math.copysign(FLT_MAX, value)
+        src.inputs[1].default_value = 2.0
+        out = src.outputs[0]
+    elif how == "combine":  # a vector with NaN or inf components
+        src = tree.nodes.new("ShaderNodeCombineXYZ")
+        for i, v in enumerate(value):
+            if math.isinf(v):
+                m = tree.nodes.new("ShaderNodeMath")
+                m.operation = 'MULTIPLY'
+                m.inputs[0].default_value = math.copysign(FLT_MAX, v)
+                m.inputs[1].default_value = 2.0
+                tree.links.new(m.outputs[0], src.inputs[i])
+            else:
+                src.inputs[i].default_value = v
+        out = src.outputs[0]
+    else:
+        raise ValueError(how)
+    tree.links.new(out, socket)
+
+
+@dataclass
+class ConstCase:
+    label: str
+    values: dict  # input -> (how, value): how is typed / value / math / combine
+    ref: dict     # input -> typed value that must render identically
+
+
+BLACKENING = {"albedo", "kd", "ks", "light_strength", "light_color"}  # lower limit 0: black
+
+
+def const_cases(variant, names):
+    """NaN typed into each input whose lower limit blacks the render (it
+    would hide the others), the other inputs NaN all at once, typed and from
+    Value nodes; every input at once +inf and -inf from Math nodes and 1e30
+    typed.  (OSL optimisation costs ~0.2 s per material: the runtime links
+    above cover every value for every input one by one.)"""
+    inputs = variant_inputs(variant)
+    hi = {n: inputs[n].hi for n in names}
+    lo = {n: inputs[n].lo for n in names}
+    cases = [ConstCase(f"{n} typed nan", {n: ("typed", NAN)}, {n: lo[n]})
+             for n in names if n in BLACKENING]
+    rest = [n for n in names if n not in BLACKENING]
+    if rest:
+        cases.append(ConstCase(f"{', '.join(rest)} typed nan", {n: ("typed", NAN) for n in rest},
+                               {n: lo[n] for n in rest}))
+        cases.append(ConstCase(f"{', '.join(rest)} Value node nan",
+                               {n: ("value", NAN) for n in rest}, {n: lo[n] for n in rest}))
+    cases.append(ConstCase("all Math +inf", {n: ("math", INF) for n in names}, hi))
+    cases.append(ConstCase("all typed 1e30", {n: ("typed", HUGE) for n in names}, hi))
+    cases.append(ConstCase("all Math -inf", {n: ("math", -INF) for n in names}, lo))
+    return cases
+
+
+VECTOR_CONST_CASES = (
+    ConstCase("light_direction typed 0", {"light_direction": ("typed", (0.0, 0.0, 0.0))},
+              {"light_direction": (0.0, 0.0, 1.0)}),
+    ConstCase("light_direction linked (nan, 0, 1)",
+              {"light_direction": ("combine", (NAN, 0.0, 1.0))},
+              {"light_direction": (0.0, 0.0, 1.0)}),
+    ConstCase("light_direction linked (inf, 0, 1)",
+              {"light_direction": ("combine", (INF, 0.0, 1.0))},
+              {"light_direction": (0.0, 0.0, 1.0)}),
+    ConstCase("light_direction typed L*2^100",
+              {"light_direction": ("typed", tuple(x * BIG for x in LIGHT32))},
+              {"light_direction": LIGHT32}),
+    ConstCase("tangent linked (nan, 1, 0)", {"tangent": ("combine", (NAN, 1.0, 0.0))},
+              {"tangent": (0.0, 0.0, 0.0)}),
+    ConstCase("tangent linked (0, -inf, 0)", {"tangent": ("combine", (0.0, -INF, 0.0))},
+              {"tangent": (0.0, 0.0, 0.0)}),
+    ConstCase("shading_normal linked (0, nan, 1)",
+              {"shading_normal": ("combine", (0.0, NAN, 1.0))},
+              {"shading_normal": (0.0, 0.0, 0.0)}),
+)
+
+# Constants go through the group of every variant for its own parameters,
+# and through two of them for the light and geometry inputs (rm_begin is
+# shared by every shader).
+CONST_COMMON = {"lambert": SCALAR_COMMON, "microfacet_alpha_xy_dielectric": SCALAR_COMMON}
+CONST_VECTORS = ("lambert", "ward", "kajiya_kay")
+
+
+def render_const_cases(bench, variant, cases):
+    bpy = bench.bpy
+    api, nodes = _api(bpy)
+    materials, rows_bad, rows_ref = [], [], []
+    refs = {}
+    problems = []
+    probe, probe_node = group_material(bpy, variant, f"rob_{variant.id}_inputs")
+    have = {nodes.socket_key(probe_node, s)[3:] for s in probe_node.inputs}
+    bpy.data.materials.remove(probe)
+    cases = [c for c in cases if set(c.values) <= have]  # no tangent on a Lambert group
+    for case in cases:
+        mat, node = group_material(bpy, variant, f"rob_{variant.id}_{len(materials)}")
+        for name, (how, value) in case.values.items():
+            socket = nodes.input_socket(node, name)
+            _feed(mat.node_tree, socket, how, value)
+            if how == "typed" and socket.type == "VALUE":
+                # The UI slider clamps to the socket's min/max; a value set
+                # from Python is stored as given (1e30 reads back 1e30).
+                TYPED_READBACK[(name, repr(value))] = socket.default_value
+        key = repr(sorted(case.ref.items()))
+        if key not in refs:
+            ref_mat, ref_node = group_material(bpy, variant, f"rob_{variant.id}_ref{len(refs)}")
+            for name, value in case.ref.items():
+                _feed(ref_mat.node_tree, nodes.input_socket(ref_node, name), "typed", value)
+            refs[key] = ref_mat
+        materials.append(mat)
+        rows_bad.append(mat)
+        rows_ref.append(refs[key])
+    slots = list(dict.fromkeys(materials + list(refs.values())))
+    index = {m.name: i for i, m in enumerate(slots)}
+    # the slots stay: changing them re-syncs (re-optimises) every shader
+    bench.set_materials(slots, [0] * (GRID * GRID))
+    mesh_rows = GRID
+    for start in range(0, len(cases), mesh_rows):
+        chunk = cases[start:start + mesh_rows]
+        per_bad = [index[m.name] for m in rows_bad[start:start + mesh_rows]]
+        per_ref = [index[m.name] for m in rows_ref[start:start + mesh_rows]]
+        # unused rows: the first reference material in both renders
+        per_bad += [per_ref[0]] * (GRID - len(per_bad))
+        per_ref += [per_ref[0]] * (GRID - len(per_ref))
+        labels = [Case(c.label, {}, {}) for c in chunk]
+        for output in ("Direct", "BSDF"):
+            bench.set_output(output)
+            bench.set_indices(np.repeat(per_bad, GRID))
+            bad = bench.render()
+            bench.set_indices(np.repeat(per_ref, GRID))
+            ref = bench.render()
+            problems += check_rows(bad, ref, labels, f"{variant.id} {output}")
+    bench.set_output("Direct")
+    bench.mesh.materials.clear()
+    for m in slots:
+        bpy.data.materials.remove(m)
+    return problems
+
+
+TYPED_READBACK = {}
+
+
+@pytest.mark.parametrize("variant", VARIANTS, ids=VARIANT_IDS)
+def test_constants_through_the_group_render_like_the_limit(bench, variant):
+    """Typed into the group's socket (Blender clamps typed values to the
+    socket's min/max; NaN it cannot clamp), or linked from a Value node
+    (NaN) or a Math node (+-inf): identical to the typed limit."""
+    names = variant.params + CONST_COMMON.get(variant.id, ())
+    cases = const_cases(variant, names)
+    if variant.id in CONST_VECTORS:
+        cases += list(VECTOR_CONST_CASES)
+    problems = render_const_cases(bench, variant, cases)
+    assert not problems, "\n".join(problems)
+
+
+def _all_variants():
+    """Every group variant of every model: (model id, enum values)."""
+    out = []
+    for model in catalogue.MODELS.values():
+        enums = [p for p in model.params if p.is_enum]
+        combos = [{}]
+        for p in enums:
+            combos = [dict(c, **{p.name: ch}) for c in combos for ch in p.choices]
+        for c in combos:
+            if c.get("shadowing") == "smith_1967" and c.get("distribution") != "beckmann":
+                continue
+            out.append((model.id, c))
+    return out
+
+
+def test_group_sockets_declare_the_catalogue_limits(bpy):
+    """Every numeric input socket of every group variant has the catalogue's
+    hard limits as min/max (float32), so typed values are clamped by
+    Blender exactly where the shader clamps."""
+    _api_mod, nodes = _api(bpy)
+    checked = 0
+    for model_id, enums in _all_variants():
+        for width in (("beta", "alpha", "alpha_xy") if model_id == "microfacet" else (None,)):
+            e = dict(enums)
+            if width is not None:
+                if width != "beta" and e["distribution"] not in ("trowbridge_reitz", "beckmann"):
+                    continue
+                e["width_mode"] = width
+            tree = nodes.ensure_group(model_id, **e)
+            keys = tree.get("rm_sockets").to_dict()
+            for item in tree.interface.items_tree:
+                if getattr(item, "in_out", None) != "INPUT":
+                    continue
+                name = keys[item.identifier][3:]
+                model = catalogue.MODELS[model_id]
+                p = model.param(name) if name in model.param_names else COMMON[name]
+                if p.kind == "color" or p.minimum is None:
+                    # Blender's colour sockets have no min/max: only the shader clamps
+                    assert not hasattr(item, "min_value") or p.kind in (
+                        "direction", "position", "normal"), name
+                    continue
+                assert item.min_value == np.float32(p.minimum), (model_id, e, name)
+                assert item.max_value == np.float32(p.maximum), (model_id, e, name)
+                checked += 1
+    assert checked > 100
+
+
+@pytest.mark.parametrize("model_id", list(catalogue.MODELS))
+def test_api_rejects_out_of_range_values_naming_the_range(bpy, model_id):
+    api, _nodes = _api(bpy)
+    model = catalogue.MODELS[model_id]
+    mat = bpy.data.materials.new("rob_api")
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    try:
+        for p in model.params:
+            if p.is_enum:
+                with pytest.raises(ValueError, match="must be one of"):
+                    api.add_model(mat, model_id, **{p.name: "no_such_choice"})
+                continue
+            bad = [NAN, p.minimum - 1.0, -INF, p.maximum * 2.0 + 1.0, INF]
+            if p.minimum > 0:
+                bad.append(0.0)
+            extra = {}
+            if model_id == "microfacet" and p.name in ("alpha_x", "alpha_y"):
+                extra = {"alpha_x": 0.2, "alpha_y": 0.2}
+            for v in bad:
+                value = (v, 0.5, 0.5) if p.kind == "color" else v
+                with pytest.raises(ValueError) as err:
+                    api.add_model(mat, model_id, **dict(extra, **{p.name: value}))
+                message = str(err.value)
+                assert p.name in message and p.allowed() in message, message
+            # set_params too
+            node = api.add_model(mat, model_id, **extra)
+            with pytest.raises(ValueError, match=p.name):
+                api.set_params(node, **dict(extra, **{p.name: p.maximum * 2.0 + 1.0}))
+    finally:
+        bpy.data.materials.remove(mat)
