@@ -58,8 +58,10 @@ REQ_HASH := $(shell printf '%s' '$(PYVER) $(REQUIREMENTS)' | md5sum | cut -c1-12
 STAMP := $(VENV)/.reflection-models-$(REQ_HASH).stamp
 PY := $(VENV)/bin/python
 
-# Throwaway temp folder for test runs (every OSL compile leaves an .oso there).
-TEST_TMP := $(CURDIR)/build/tmp/test-$(BLENDER)
+# Throwaway temp folders (every OSL compile leaves an .oso there).  Each test
+# run gets its own under the system temp folder, so runs at the same time do
+# not collide, and the OSL compiler sees absolute paths (with a path inside
+# the working directory it reports line numbers one too high).
 RUN_TMP := $(CURDIR)/build/tmp/run-$(BLENDER)
 TESTS ?= tests
 PYTEST_ARGS ?=
@@ -84,8 +86,9 @@ $(STAMP):
 	@touch $@
 
 test: $(STAMP)
-	@rm -rf "$(TEST_TMP)" && mkdir -p "$(TEST_TMP)"
-	TMPDIR="$(TEST_TMP)" $(PY) -m pytest $(TESTS) -q $(PYTEST_ARGS)
+	@run=$$(mktemp -d -t reflection-models-test-$(BLENDER).XXXXXX); \
+	TMPDIR="$$run" $(PY) -m pytest $(TESTS) -q $(PYTEST_ARGS); status=$$?; \
+	rm -rf "$$run"; exit $$status
 
 test-all:
 	$(MAKE) test BLENDER=5.2

@@ -128,8 +128,11 @@ class _Compiling:
             tempfile.tempdir = self._saved_tempdir
             shutil.rmtree(self.scratch, ignore_errors=True)
         # name the datablock instead of the temporary file in messages
-        self.text = re.sub(re.escape(self.scratch) + r"[/\\][^:\s]*\.osl", "<text>",
-                           self._capture.text)
+        # The compiler names the file by its absolute path, or relative to the
+        # working directory when the scratch folder lies inside it.
+        names = {self.scratch, os.path.relpath(self.scratch)}
+        pattern = "|".join(re.escape(n) for n in sorted(names, key=len, reverse=True))
+        self.text = re.sub(rf"(?:{pattern})[/\\][^:\s]*\.osl", "<text>", self._capture.text)
         return False
 
 

@@ -318,6 +318,11 @@ def _render_main(args: argparse.Namespace) -> int:
     bpy = prepare()
     bpy.ops.wm.open_mainfile(filepath=args.blend, load_ui=False)
     scene = bpy.data.scenes[args.scene] if args.scene else bpy.context.scene
+    window = bpy.context.window
+    if window is not None and window.scene != scene:
+        # Drivers and animation are evaluated for the window's scene: another
+        # scene would render with its frame-1 pose after frame_set().
+        window.scene = scene
     if args.frame is not None:
         scene.frame_set(args.frame)
     image = scene.render.image_settings
