@@ -75,7 +75,11 @@ class Model:
     params: tuple
     kind: str = "surface"  # "surface" (uses the normal) or "fibre" (uses the tangent)
     shader: str = ""  # file in osl/
-    rules: tuple = ()  # extra validation rules, see reference._check_rules
+    rules: tuple = ()  # extra validation rules, see reference._check
+    # The path-traced closure: an expression of osl/rm_closures.h in the frame
+    # (n, t) and the parameters; tools/gen_osl.py writes rm_<id>_bsdf.osl from it.
+    closure: str = ""
+    extra_ints: tuple = ()  # (name, default) int inputs of the shader beyond params
 
     def param(self, name: str) -> Param:
         for p in self.params:
@@ -143,6 +147,7 @@ _add(Model(
     description="Ideal diffuse reflection: f = albedo / pi",
     slide="Last lecture: ideal diffuse",
     shader="rm_lambert.osl",
+    closure="lambert_bsdf(n, albedo)",
     params=(
         Param("albedo", "Albedo", "color", (0.8, 0.8, 0.8),
               "Diffuse reflectance: the fraction of the light reflected",
@@ -156,6 +161,7 @@ _add(Model(
     description="Phong's cosine lobe around the mirror direction: ks (E.R(L))^s",
     slide="Phong Model; Energy normalization",
     shader="rm_phong.osl",
+    closure="phong_bsdf(n, exponent, ks, normalization)",
     params=(
         _exponent(),
         _ks(),
@@ -170,6 +176,7 @@ _add(Model(
     description="Blinn's half-vector form of Phong: ks (N.H)^s",
     slide="Reflection Geometry (cos theta_s' = H.N)",
     shader="rm_blinn_phong.osl",
+    closure="blinn_phong_bsdf(n, t, exponent, ks, normalization)",
     params=(
         _exponent(),
         _ks(),
@@ -185,6 +192,8 @@ _add(Model(
                  "choice of distribution D, shadowing G and Fresnel F"),
     slide="Torrance-Sparrow Model; Microfacet Distribution Functions; Self-Shadowing",
     shader="rm_microfacet.osl",
+    closure="microfacet_bsdf(n, t, distribution, fresnel, width_mode, beta, alpha, alpha_x, alpha_y, ior, k, ks)",
+    extra_ints=(("width_mode", 0),),
     params=(
         Param("distribution", "Distribution", "enum", "beckmann",
               "Microfacet distribution D", choices=DISTRIBUTIONS),
@@ -232,6 +241,7 @@ _add(Model(
     slide="Kay-Kajiya Model",
     kind="fibre",
     shader="rm_kajiya_kay.osl",
+    closure="kajiya_kay_bsdf(n, rm_fibre_tangent(tangent, default_tangent, tangent_rotation, n, t), kd, ks, exponent)",
     params=(
         Param("kd", "Diffuse", "color", (0.25, 0.12, 0.05),
               "Diffuse colour: weight of the sin(theta_L) term",
@@ -247,6 +257,7 @@ _add(Model(
     description="Ward's anisotropic Gaussian lobe (Ward 1992)",
     slide="Anisotropic Reflection Model",
     shader="rm_ward.osl",
+    closure="ward_bsdf(n, t, alpha_x, alpha_y, ks)",
     params=(
         Param("alpha_x", "Roughness X", "float", 0.3,
               "RMS slope along the tangent", minimum=ALPHA_MIN, maximum=1.0,

@@ -37,7 +37,7 @@ import bpy
 
 from . import catalogue, oslutil, reference
 
-NODES_VERSION = 1
+NODES_VERSION = 2  # 2: a closure-only shader feeds the BSDF output
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 
@@ -330,17 +330,27 @@ def _build(tree, model_id: str, variant: dict) -> None:
     tree.nodes.clear()
     tree.interface.clear()
 
+    # Two shaders: the model (exact outputs and terms) and its closure alone
+    # for the BSDF output, so that a material using only BSDF compiles only
+    # the closure (Cycles leaves out nodes not connected to the output).
     script = oslutil.make_script_node(tree, shader_name(model.id))
     script.location = (0.0, 0.0)
     script.label = model.label
+    closure = oslutil.make_script_node(tree, shader_name(model.id) + "_bsdf")
+    closure.location = (0.0, 400.0)
+    closure.label = model.label + " (BSDF)"
+    scripts = (closure, script)
     for p in variant_params(model.id):
-        if p.name not in script.inputs:
-            raise RuntimeError(f"shader {shader_name(model.id)!r} has no int input {p.name!r}")
-        script.inputs[p.name].default_value = p.choices.index(variant[p.name])
-        script.inputs[p.name].hide = True
+        for node in scripts:
+            if p.name not in node.inputs:
+                raise RuntimeError(f"shader {node.name!r} has no int input {p.name!r}")
+            node.inputs[p.name].default_value = p.choices.index(variant[p.name])
+            node.inputs[p.name].hide = True
 
     sockets = {}
-    for out in script.outputs:
+    outputs = [(closure, closure.outputs["BSDF"])]
+    outputs += [(script, out) for out in script.outputs if out.name != "BSDF"]
+    for node, out in outputs:
         item = tree.interface.new_socket(
             output_label(out.name), in_out="OUTPUT", socket_type=_SOCKET_TYPES[out.type],
             description=OUTPUT_DESCRIPTIONS.get(
@@ -380,11 +390,17 @@ def _build(tree, model_id: str, variant: dict) -> None:
     for item, p in inputs:
         if p.name not in script.inputs:
             raise RuntimeError(f"shader {shader_name(model.id)!r} has no input {p.name!r}")
-        links.new(_by_identifier(group_in.outputs, item.identifier), script.inputs[p.name])
-    links.new(tangent.outputs["Tangent"], script.inputs["default_tangent"])
+        for node in scripts:
+            if p.name in node.inputs:
+                links.new(_by_identifier(group_in.outputs, item.identifier), node.inputs[p.name])
+    for node in scripts:
+        links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
+    producers = {"BSDF": closure}
     for identifier, key in sockets.items():
         if key.startswith("out:"):
-            links.new(script.outputs[key[4:]], _by_identifier(group_out.inputs, identifier))
+            name = key[4:]
+            node = producers.get(name, script)
+            links.new(node.outputs[name], _by_identifier(group_out.inputs, identifier))
 
     tree["rm_model"] = model.id
     tree["rm_variant"] = dict(variant)

@@ -345,6 +345,14 @@ color F_conductor(float c, color n, color k)
 // Inputs every model shader has besides its parameters (names = catalogue
 // LIGHT_INPUTS and GEOMETRY_INPUTS; default_tangent comes from the group's
 // Tangent node).  Defaults are constants so unconnected sockets pass values.
+#define RM_GEOMETRY_PARAMS                                                    \
+    normal shading_normal = normal(0.0),                                      \
+    vector tangent = vector(0.0),                                             \
+    float tangent_rotation = 0.0,                                             \
+    vector default_tangent = vector(0.0)
+
+#define RM_GEOMETRY_ARGS shading_normal, tangent, tangent_rotation, default_tangent
+
 #define RM_LIGHT_GEOMETRY_PARAMS                                              \
     float point_light = 0.0,                                                  \
     vector light_direction = vector(0.0, 0.0, 1.0),                           \
@@ -352,28 +360,20 @@ color F_conductor(float c, color n, color k)
     float light_strength = 1.0,                                               \
     color light_color = color(1.0),                                           \
     float shadows = 1.0,                                                      \
-    normal shading_normal = normal(0.0),                                      \
-    vector tangent = vector(0.0),                                             \
-    float tangent_rotation = 0.0,                                             \
-    vector default_tangent = vector(0.0)
+    RM_GEOMETRY_PARAMS
 
 #define RM_LIGHT_GEOMETRY_ARGS                                                \
     point_light, light_direction, light_position, light_strength, light_color, \
-    shadows, shading_normal, tangent, tangent_rotation, default_tangent
+    shadows, RM_GEOMETRY_ARGS
 
-// The local frame (t, b, n), the view (wo) and light (wi) directions, and the light's
-// irradiance E (colour; zero in shadow) at P.
-void rm_begin(float point_light, vector light_direction, point light_position,
-              float light_strength, color light_color, float shadows,
-              normal shading_normal, vector tangent, float tangent_rotation,
-              vector default_tangent,
-              output vector n, output vector t, output vector b, output vector wo,
-              output vector wi, output color E)
+// The local frame: the normal n, the tangent t (projected on the surface and
+// rotated about n) and b = n x t.
+void rm_frame(normal shading_normal, vector tangent, float tangent_rotation,
+              vector default_tangent, output vector n, output vector t, output vector b)
 {
     n = rm_direction(shading_normal);
     if (dot(n, n) == 0.0)
         n = N;
-    wo = normalize(I);  // In Cycles OSL, I points toward the viewer.
 
     vector tt = rm_direction(tangent);
     if (dot(tt, tt) == 0.0)
@@ -388,6 +388,19 @@ void rm_begin(float point_light, vector light_direction, point light_position,
                        RM_COMMON_TANGENT_ROTATION_MAX);
     t = cos(r) * tt + sin(r) * cross(n, tt);
     b = cross(n, t);
+}
+
+// The local frame (t, b, n), the view (wo) and light (wi) directions, and the light's
+// irradiance E (colour; zero in shadow) at P.
+void rm_begin(float point_light, vector light_direction, point light_position,
+              float light_strength, color light_color, float shadows,
+              normal shading_normal, vector tangent, float tangent_rotation,
+              vector default_tangent,
+              output vector n, output vector t, output vector b, output vector wo,
+              output vector wi, output color E)
+{
+    rm_frame(shading_normal, tangent, tangent_rotation, default_tangent, n, t, b);
+    wo = normalize(I);  // In Cycles OSL, I points toward the viewer.
 
     float strength = rm_clamp(light_strength, RM_COMMON_LIGHT_STRENGTH_MIN,
                               RM_COMMON_LIGHT_STRENGTH_MAX);
@@ -416,6 +429,49 @@ void rm_begin(float point_light, vector light_direction, point light_position,
 vector rm_local(vector w, vector t, vector b, vector n)
 {
     return vector(dot(w, t), dot(w, b), dot(w, n));
+}
+
+// The fibre direction of Kajiya-Kay: the tangent as given (not projected on a
+// surface), else the default tangent, else the frame's t; rotated about n
+// (Rodrigues), keeping the fibre's tilt out of the surface.
+vector rm_fibre_tangent(vector tangent, vector default_tangent, float tangent_rotation,
+                        vector n, vector t)
+{
+    vector tf = rm_direction(tangent);
+    if (dot(tf, tf) == 0.0)
+        tf = rm_direction(default_tangent);
+    if (dot(tf, tf) == 0.0)
+        tf = t;
+    float r = rm_clamp(tangent_rotation, RM_COMMON_TANGENT_ROTATION_MIN,
+                       RM_COMMON_TANGENT_ROTATION_MAX);
+    return cos(r) * tf + sin(r) * cross(n, tf) + (1.0 - cos(r)) * dot(n, tf) * n;
+}
+
+// Native widths (ax, ay) of the microfacet shader from its width inputs:
+// converted from beta when width_mode is RM_WIDTH_BETA (Blinn and Gaussian
+// get the Beckmann m of the same beta: the closure's stand-in).
+void rm_microfacet_widths(int distribution, int width_mode, float beta, float alpha,
+                          float alpha_x, float alpha_y, output float ax, output float ay)
+{
+    int native = (distribution == RM_DISTRIBUTION_TROWBRIDGE_REITZ ||
+                  distribution == RM_DISTRIBUTION_BECKMANN);
+    float bt = rm_clamp(beta, RM_MICROFACET_BETA_MIN, RM_MICROFACET_BETA_MAX);
+    if (native && width_mode == RM_WIDTH_ALPHA) {
+        ax = rm_clamp(alpha, RM_MICROFACET_ALPHA_MIN, RM_MICROFACET_ALPHA_MAX);
+        ay = ax;
+    }
+    else if (native && width_mode == RM_WIDTH_ALPHA_XY) {
+        ax = rm_clamp(alpha_x, RM_MICROFACET_ALPHA_X_MIN, RM_MICROFACET_ALPHA_X_MAX);
+        ay = rm_clamp(alpha_y, RM_MICROFACET_ALPHA_Y_MIN, RM_MICROFACET_ALPHA_Y_MAX);
+    }
+    else if (distribution == RM_DISTRIBUTION_TROWBRIDGE_REITZ) {
+        ax = tr_alpha_from_beta(bt);
+        ay = ax;
+    }
+    else {
+        ax = beckmann_m_from_beta(bt);
+        ay = ax;
+    }
 }
 
 // Cycles' closure distribution names: only these two exist; any other string

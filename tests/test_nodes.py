@@ -188,8 +188,13 @@ def test_every_default_group_matches_the_catalogue(nodes, model_id):
         else:
             assert default == pytest.approx(p.default, **F32)
 
-    # outputs: BSDF, Direct, Color, then every term of the shader, all linked
-    script = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeScript")
+    # Two scripts: the model (exact outputs, terms) and its closure alone (BSDF).
+    scripts = {n.script.name: n for n in tree.nodes if n.bl_idname == "ShaderNodeScript"}
+    script = scripts.pop(f"rm_{model_id}.osl")
+    closure = scripts.pop(f"rm_{model_id}_bsdf.osl")
+    assert not scripts
+
+    # outputs: BSDF (from the closure), Direct, Color, then every term, all linked
     outputs = interface_sockets(tree, "OUTPUT")
     assert [s.name for s in outputs[:3]] == list(catalogue.MAIN_OUTPUTS)
     assert [s.socket_type for s in outputs[:3]] == ["NodeSocketShader", "NodeSocketShader",
@@ -197,21 +202,28 @@ def test_every_default_group_matches_the_catalogue(nodes, model_id):
     assert [s.name for s in outputs] == [nodes.output_label(o.name) for o in script.outputs]
     assert all(s.description.strip() for s in outputs)
     group_out = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
+    assert [link.to_node for link in closure.outputs["BSDF"].links] == [group_out]
+    assert not script.outputs["BSDF"].links  # a path-traced material compiles the closure only
     for out in script.outputs:
-        assert [link.to_node for link in out.links] == [group_out], out.name
+        if out.name != "BSDF":
+            assert [link.to_node for link in out.links] == [group_out], out.name
 
-    # inside: every group input feeds the script input of the same parameter
+    # inside: every group input feeds the script inputs of the same parameter
     group_in = next(n for n in tree.nodes if n.bl_idname == "NodeGroupInput")
-    for item, p in zip(inputs, params):
-        (link,) = script.inputs[p.name].links
-        assert link.from_node == group_in and link.from_socket.identifier == item.identifier
     tangent = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTangent")
     assert tangent.direction_type == "UV_MAP"
-    assert script.inputs["default_tangent"].links[0].from_node == tangent
-    for p in nodes.variant_params(model_id):
-        assert script.inputs[p.name].default_value == p.choices.index(variant[p.name])
-        assert not script.inputs[p.name].is_linked
-    assert script.bytecode
+    for node in (script, closure):
+        for item, p in zip(inputs, params):
+            if node is closure and p.name not in node.inputs:
+                assert p.panel == "Light", p.name  # the closure needs no light
+                continue
+            (link,) = node.inputs[p.name].links
+            assert link.from_node == group_in and link.from_socket.identifier == item.identifier
+        assert node.inputs["default_tangent"].links[0].from_node == tangent
+        for p in nodes.variant_params(model_id):
+            assert node.inputs[p.name].default_value == p.choices.index(variant[p.name])
+            assert not node.inputs[p.name].is_linked
+        assert node.bytecode
 
 
 def test_angles_and_factors_show_their_units_on_the_node(nodes, bpy):
