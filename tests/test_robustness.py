@@ -330,26 +330,32 @@ def attr_name(input_name):
     return "rm_" + input_name
 
 
-def _script_node(tree, variant):
+def _script_nodes(tree, variant):
+    """The model's shader, and the closure-only shader that feeds the
+    groups' BSDF output when ``osl/rm_<model>_bsdf.osl`` exists (else the
+    model's own BSDF output): ``(direct_node, bsdf_node)``."""
     from addon import oslutil
 
-    node = oslutil.make_script_node(tree, "rm_" + variant.model)
-    for key, value in variant.enums.items():
-        node.inputs[key].default_value = CODES[key][value]
     tangent = tree.nodes.new("ShaderNodeTangent")
     tangent.direction_type = 'UV_MAP'
     tangent.uv_map = "UVMap"
-    tree.links.new(tangent.outputs[0], node.inputs["default_tangent"])
-    return node
+    nodes = [oslutil.make_script_node(tree, "rm_" + variant.model)]
+    if (oslutil.osl_dir() / f"rm_{variant.model}_bsdf.osl").is_file():
+        nodes.append(oslutil.make_script_node(tree, f"rm_{variant.model}_bsdf"))
+    for node in nodes:
+        for key, value in variant.enums.items():
+            node.inputs[key].default_value = CODES[key][value]
+        tree.links.new(tangent.outputs[0], node.inputs["default_tangent"])
+    return nodes[0], nodes[-1]
 
 
-def _select_output(tree, node, out):
+def _select_output(tree, direct, bsdf, out):
     """Mix Direct (attribute rm_output = 0) and BSDF (= 1): one shader shows
     either output without being optimised again."""
     mix = tree.nodes.new("ShaderNodeMixShader")
     tree.links.new(_attribute_node(tree, "rm_output").outputs["Fac"], mix.inputs[0])
-    tree.links.new(node.outputs["Direct"], mix.inputs[1])
-    tree.links.new(node.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(direct.outputs["Direct"], mix.inputs[1])
+    tree.links.new(bsdf.outputs["BSDF"], mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
 
 
@@ -369,10 +375,12 @@ def link_attribute(tree, socket, name, kind):
 def linked_material(bpy, variant):
     """Every numeric input linked from the face attribute rm_<input>."""
     mat, tree, out = _new_material(bpy, "rob_link_" + variant.id)
-    node = _script_node(tree, variant)
+    direct, bsdf = _script_nodes(tree, variant)
     for inp in variant_inputs(variant).values():
-        link_attribute(tree, node.inputs[inp.name], attr_name(inp.name), inp.kind)
-    _select_output(tree, node, out)
+        for node in {direct.name: direct, bsdf.name: bsdf}.values():
+            if inp.name in node.inputs:
+                link_attribute(tree, node.inputs[inp.name], attr_name(inp.name), inp.kind)
+    _select_output(tree, direct, bsdf, out)
     return mat
 
 
