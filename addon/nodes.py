@@ -394,7 +394,8 @@ def _build(tree, model_id: str, variant: dict) -> None:
             if p.name in node.inputs:
                 links.new(_by_identifier(group_in.outputs, item.identifier), node.inputs[p.name])
     for node in scripts:
-        links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
+        if "default_tangent" in node.inputs:  # a closure without tangent has none
+            links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
     producers = {"BSDF": closure}
     for identifier, key in sockets.items():
         if key.startswith("out:"):

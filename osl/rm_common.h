@@ -368,12 +368,17 @@ color F_conductor(float c, color n, color k)
 
 // The local frame: the normal n, the tangent t (projected on the surface and
 // rotated about n) and b = n x t.
+// The shading normal: the input when set, else the surface normal N.
+vector rm_normal(normal shading_normal)
+{
+    vector n = rm_direction(shading_normal);
+    return (dot(n, n) == 0.0) ? N : n;
+}
+
 void rm_frame(normal shading_normal, vector tangent, float tangent_rotation,
               vector default_tangent, output vector n, output vector t, output vector b)
 {
-    n = rm_direction(shading_normal);
-    if (dot(n, n) == 0.0)
-        n = N;
+    n = rm_normal(shading_normal);
 
     vector tt = rm_direction(tangent);
     if (dot(tt, tt) == 0.0)
