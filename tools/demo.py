@@ -66,6 +66,9 @@ def main(argv=None):
     status = 1
     try:
         status = run(args)
+    except BaseException:  # os._exit below would swallow the traceback
+        import traceback
+        traceback.print_exc()
     finally:
         from tools import bpy_env
         sys.stdout.flush()
@@ -174,6 +177,8 @@ def run(args):
                       gallery_png=gallery_png, gallery_labels=labels, polar_plots=polar,
                       meta=meta)
 
+    companion_failed = _companion_pages(out, args)
+
     log("\n== summary ==")
     log(report.summary_table(entries))
     failed = [e for e in entries if e["pass"] is False]
@@ -184,7 +189,53 @@ def run(args):
     log(f"report: {out / 'report.html'}  json: {out / 'report.json'}")
     for e in failed:
         log(f"FAIL: {e['model']} [{e['variant']}] {e['mode']}: {e['max_rel_error']} > {e['tolerance']}")
-    return 1 if failed else 0
+    for name in companion_failed:
+        log(f"FAIL: {name}")
+    return 1 if failed or companion_failed else 0
+
+
+def _companion_pages(out, args):
+    """The anisotropy and hair figures (a section of report.html) and the
+    lecture companion page (out/lecture.html, linked from the report).
+    Returns the names of failed checks."""
+    import html
+
+    from test_scenes import anisotropy
+    from tools import lecture_page, report
+
+    failed = []
+    log("\n-- anisotropic reflection and hair")
+    figs = anisotropy.figures(str(out / "anisotropy"))
+    section = ["<h2 id='anisotropy-and-hair'>Anisotropic reflection and hair</h2>",
+               "<p class='small'>Exact mode on a cylinder, a brushed disc under a point light "
+               "and real hair curves, against addon.reference on the known geometry "
+               "(docs/anisotropy.md).</p><table><tr><th>figure</th><th>check</th>"
+               "<th>measured</th><th>expected</th><th>result</th></tr>"]
+    for f in figs:
+        c = f["check"]
+        verdict = report.verdict(c["pass"])
+        rel = os.path.relpath(f["image_path"], out)
+        section.append(f"<tr><td><img src='{html.escape(rel)}' style='max-width:240px'></td>"
+                       f"<td>{html.escape(c['name'])}</td><td>{html.escape(str(c['measured']))}</td>"
+                       f"<td>{html.escape(str(c['expected']))}</td>"
+                       f"<td class='{verdict}'>{verdict}</td></tr>")
+        log(f"  {verdict:8s} {c['name']}: {c['measured']}")
+        if c["pass"] is False:
+            failed.append(c["name"])
+    section.append("</table><h2>Lecture companion</h2><p><a href='lecture.html'>The lecture's "
+                   "figures and experiments, each with its check</a></p>")
+    page = (out / "report.html").read_text()
+    (out / "report.html").write_text(page.replace("</body>", "\n".join(section) + "</body>"))
+
+    log("\n-- lecture companion")
+    checks = lecture_page.build(str(out))
+    for c in checks:
+        verdict = report.verdict(c["pass"])
+        log(f"  {verdict:8s} {c['name']}: {c.get('measured', '')}")
+        if c["pass"] is False:
+            failed.append(c["name"])
+    log(f"-> {out / 'lecture.html'}")
+    return failed
 
 
 if __name__ == "__main__":
