@@ -49,7 +49,8 @@ SUPPORTED_LIGHTS = ("SUN", "POINT")
 LIGHT_SOCKETS = tuple(p.name for p in catalogue.LIGHT_INPUTS)
 
 __all__ = ["add_model", "set_params", "bind_light", "unbind_light", "bound_light",
-           "light_drivers", "enable_osl", "osl_status", "ensure_groups", "MODES", "METALS"]
+           "light_drivers", "enable_osl", "osl_status", "ensure_groups", "apply_metal",
+           "MODES", "METALS"]
 
 
 # ---------------------------------------------------------------------------
@@ -171,6 +172,19 @@ def set_params(node, **params):
         nodes.switch_variant(node, **enums)
     _set_sockets(node, socket_values)
     return node
+
+
+def apply_metal(node, metal: str):
+    """Make a microfacet ``node`` a metal: Fresnel 'conductor' with the
+    measured complex index n + ik of ``metal`` (a key of :data:`METALS`;
+    sources in ``addon/catalogue.py``).  Returns the node."""
+    if metal not in METALS:
+        raise ValueError(f"unknown metal {metal!r}; allowed: {', '.join(METALS)}")
+    model_id, _variant = _rm_node_info(node)
+    if model_id != "microfacet":
+        raise ValueError(f"metals apply to microfacet nodes, not {model_id!r}")
+    n, k = METALS[metal]
+    return set_params(node, fresnel="conductor", ior=n, k=k)
 
 
 def _material_output(ntree):

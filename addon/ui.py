@@ -213,6 +213,28 @@ class NODE_OT_rm_unbind_light(bpy.types.Operator):
         return {'FINISHED'}
 
 
+class NODE_OT_rm_apply_metal(bpy.types.Operator):
+    bl_idname = "node.rm_apply_metal"
+    bl_label = "Metal"
+    bl_description = ("Make the active microfacet node a metal: conductor Fresnel with the "
+                      "measured complex index of refraction n + ik")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    metal: EnumProperty(
+        name="Metal", description="Measured n and k at 650, 550 and 450 nm",
+        items=[(name, name.title(), f"n = {n}, k = {k}")
+               for name, (n, k) in catalogue.METALS.items()])
+
+    @classmethod
+    def poll(cls, context):
+        node = _active_rm_node(context)
+        return node is not None and nodes.rm_info(node.node_tree)[0] == "microfacet"
+
+    def execute(self, context):
+        api.apply_metal(_active_rm_node(context), self.metal)
+        return {'FINISHED'}
+
+
 class NODE_OT_rm_upgrade_groups(bpy.types.Operator):
     bl_idname = "node.rm_upgrade_groups"
     bl_label = "Upgrade Groups"
@@ -371,6 +393,9 @@ def _draw_node(layout, context, node):
         split = row.split(factor=0.4)
         split.label(text=p.label)
         split.menu(_variant_menu_id(p.name), text=nodes.choice_label(variant[p.name]))
+    if model_id == "microfacet":
+        box.operator_menu_enum(NODE_OT_rm_apply_metal.bl_idname, "metal", text="Metal Preset",
+                               icon='MATERIAL')
     box = layout.box()
     bound = api.bound_light(node)
     box.label(text=f"Light: {bound.name}" if bound else "Light: the Light inputs",
@@ -430,6 +455,7 @@ CLASSES = (
     NODE_OT_rm_switch_variant,
     NODE_OT_rm_bind_light,
     NODE_OT_rm_unbind_light,
+    NODE_OT_rm_apply_metal,
     NODE_OT_rm_upgrade_groups,
     NODE_MT_rm_add,
     NODE_MT_rm_add_microfacet,
