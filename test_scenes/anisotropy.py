@@ -127,13 +127,7 @@ def reference_shade(model, wi, wo, normal, tangent, params):
 
 def _new_material(name):
     """A material with an empty node tree (4.5 needs use_nodes)."""
-    bpy = common.import_bpy()
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0):
-        mat.use_nodes = True
-    for n in list(mat.node_tree.nodes):
-        mat.node_tree.nodes.remove(n)
-    return mat
+    return common.empty_material(name, output=False)[0]
 
 
 def _set_input(socket, value):

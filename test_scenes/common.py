@@ -295,6 +295,33 @@ def render_to_exr(scene, path):
     return seconds
 
 
+def render_image(scene, prefix="render_"):
+    """Render ``scene`` to a temporary float32 EXR, read it back and remove it.
+    Returns ``(RGB (H, W, 3) float32 with row 0 = top, render seconds)``."""
+    path = temp_path(prefix=prefix)
+    try:
+        seconds = render_to_exr(scene, path)
+        return read_exr(path, 3), seconds
+    finally:
+        if os.path.exists(path):
+            os.remove(path)
+
+
+def empty_material(name, *, output=True):
+    """A node material with an empty tree (Blender 4.5 needs ``use_nodes``),
+    holding only a Material Output node when ``output``.  Returns
+    ``(material, node_tree, output node or None)``."""
+    bpy = import_bpy()
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0):
+        mat.use_nodes = True
+    tree = mat.node_tree
+    for node in list(tree.nodes):
+        tree.nodes.remove(node)
+    out = tree.nodes.new("ShaderNodeOutputMaterial") if output else None
+    return mat, tree, out
+
+
 def read_exr(path, channels=3):
     """Read the first ``channels`` channels of an image as float32
     ``(H, W, channels)``, row 0 = top of the picture."""

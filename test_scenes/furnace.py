@@ -12,7 +12,6 @@ average over pixels (:meth:`FurnaceScene.mean`, :meth:`albedo_by_angle`).
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -141,13 +140,8 @@ def render(furnace, path=None):
     """Render the furnace to a float32 EXR (default: a temporary file, removed
     after reading); return RGB ``(H, W, 3)``, row 0 = top.  The wall time is
     stored in ``furnace.last_render_seconds``."""
-    remove = path is None
     if path is None:
-        path = common.temp_path(prefix="furnace_")
-    try:
-        furnace.last_render_seconds = common.render_to_exr(furnace.scene, path)
-        img = common.read_exr(path, 3)
-    finally:
-        if remove and os.path.exists(path):
-            os.remove(path)
-    return img
+        img, furnace.last_render_seconds = common.render_image(furnace.scene, "furnace_")
+        return img
+    furnace.last_render_seconds = common.render_to_exr(furnace.scene, path)
+    return common.read_exr(path, 3)

@@ -93,14 +93,7 @@ def _look_at(obj, target):
 
 
 def _label_material(name):
-    bpy = common.import_bpy()
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0):
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for n in list(tree.nodes):
-        tree.nodes.remove(n)
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    mat, tree, out = common.empty_material(name)
     em = tree.nodes.new("ShaderNodeEmission")
     em.inputs["Color"].default_value = (0.9, 0.9, 0.9, 1.0)
     em.inputs["Strength"].default_value = 1.0

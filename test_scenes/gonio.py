@@ -42,7 +42,6 @@ Typical use::
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -404,15 +403,11 @@ def render(gonio, path=None):
     (default: a temporary file, removed after reading) and return its RGB as
     ``(H, W, 3)`` float32, row 0 = top, matching the geometry arrays.  The
     render's wall time is stored in ``gonio.last_render_seconds``."""
-    remove = path is None
     if path is None:
-        path = common.temp_path(prefix="gonio_")
-    try:
+        img, gonio.last_render_seconds = common.render_image(gonio.scene, "gonio_")
+    else:
         gonio.last_render_seconds = common.render_to_exr(gonio.scene, path)
         img = common.read_exr(path, 3)
-    finally:
-        if remove and os.path.exists(path):
-            os.remove(path)
     if img.shape[:2] != gonio.mask.shape:
         raise AssertionError(f"render size {img.shape[:2]} != geometry {gonio.mask.shape}")
     return img

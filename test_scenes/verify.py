@@ -81,15 +81,7 @@ def blender_version():
 
 def new_material(name):
     """An empty node material holding only a Material Output node."""
-    bpy = common.import_bpy()
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0):
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for node in list(tree.nodes):
-        tree.nodes.remove(node)
-    tree.nodes.new("ShaderNodeOutputMaterial")
-    return mat
+    return common.empty_material(name)[0]
 
 
 def _input(node, *names):

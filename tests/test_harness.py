@@ -86,14 +86,7 @@ def fresnel_exact(cos_h, n, k):
 
 def new_material(bpy, name):
     """An empty node material: returns (material, node_tree, output node)."""
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0):
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for node in list(tree.nodes):
-        tree.nodes.remove(node)
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    return mat, tree, out
+    return common.empty_material(name)
 
 
 def uv_tangent_node(tree):

@@ -44,7 +44,7 @@ import numpy as np
 import pytest
 
 from addon import catalogue
-from test_scenes import gonio
+from test_scenes import common, gonio
 
 NAN = float("nan")
 INF = float("inf")
@@ -304,14 +304,9 @@ def _tiles():
 
 
 def _new_material(bpy, name):
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0):
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for node in list(tree.nodes):
-        tree.nodes.remove(node)
+    mat, tree, out = common.empty_material(name)
     mat.cycles.emission_sampling = 'NONE'
-    return mat, tree, tree.nodes.new("ShaderNodeOutputMaterial")
+    return mat, tree, out
 
 
 def _attribute_node(tree, name):
@@ -345,7 +340,8 @@ def _script_nodes(tree, variant):
     for node in nodes:
         for key, value in variant.enums.items():
             node.inputs[key].default_value = CODES[key][value]
-        tree.links.new(tangent.outputs[0], node.inputs["default_tangent"])
+        if "default_tangent" in node.inputs:  # closures without a tangent have none
+            tree.links.new(tangent.outputs[0], node.inputs["default_tangent"])
     return nodes[0], nodes[-1]
 
 

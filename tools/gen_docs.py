@@ -8,7 +8,6 @@ fails when the README is out of date.
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 
