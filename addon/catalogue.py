@@ -55,7 +55,8 @@ class Param:
         lo = "-inf" if self.minimum is None else _fmt(self.minimum, self.kind)
         hi = "inf" if self.maximum is None else _fmt(self.maximum, self.kind)
         what = "an RGB colour or scalar" if self.kind == "color" else "a number"
-        return f"{what} in [{lo}, {hi}]" + (f" {self.unit}" if self.unit else "")
+        unit = f" {self.unit}" if self.unit and self.kind != "angle" else ""  # angles say rad/deg
+        return f"{what} in [{lo}, {hi}]{unit}"
 
 
 def _fmt(value: float, kind: str) -> str:
