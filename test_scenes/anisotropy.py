@@ -920,25 +920,15 @@ def hair_demo(out_dir, *, resolution=(120, 120)):
 def write_png(path, img, *, scale=None, background=None):
     """Write a linear float image as an 8-bit sRGB PNG; ``scale`` divides
     (default: the 99.5th percentile); pure-black pixels become
-    ``background`` when given."""
-    oiio = common._oiio()
+    ``background`` (display value) when given."""
     img = np.asarray(img, dtype=np.float64)[..., :3]
     if scale is None:
         v = img[img.max(-1) > 0]
         scale = float(np.percentile(v, 99.5)) if v.size else 1.0
-    x = np.clip(img / max(scale, 1e-30), 0.0, 1.0)
-    x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    x = common.srgb_encode(img / max(scale, 1e-30))
     if background is not None:
-        empty = img.max(-1) <= 0
-        x[empty] = background
-    x8 = np.round(x * 255.0).astype(np.uint8)
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    out = oiio.ImageOutput.create(path)
-    spec = oiio.ImageSpec(x8.shape[1], x8.shape[0], 3, "uint8")
-    out.open(path, spec)
-    out.write_image(np.ascontiguousarray(x8))
-    out.close()
-    return path
+        x[img.max(-1) <= 0] = background
+    return str(common.write_png(path, x, srgb=False))
 
 
 def side_by_side(*imgs, gap=2):

@@ -25,6 +25,7 @@ import shutil
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -320,6 +321,38 @@ def empty_material(name, *, output=True):
         tree.nodes.remove(node)
     out = tree.nodes.new("ShaderNodeOutputMaterial") if output else None
     return mat, tree, out
+
+
+def srgb_encode(linear):
+    """Linear [0, 1] -> sRGB-encoded [0, 1] (IEC 61966-2-1), clipped."""
+    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def write_png(path, rgb, *, srgb=True):
+    """Write ``rgb`` ``(H, W, 3)`` (row 0 = top; linear if ``srgb``, else
+    already display-encoded in [0, 1]) as an 8-bit PNG."""
+    oiio = _oiio()
+
+    img = np.asarray(rgb, dtype=np.float64)[..., :3]
+    if srgb:
+        img = srgb_encode(img)
+    data = np.ascontiguousarray(np.clip(np.round(img * 255.0), 0, 255).astype(np.uint8))
+    h, w = data.shape[:2]
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    out = oiio.ImageOutput.create(str(path))
+    if out is None:
+        raise OSError(f"cannot create {path}: {oiio.geterror()}")
+    spec = oiio.ImageSpec(w, h, 3, "uint8")
+    spec.attribute("png:compressionLevel", 9)
+    if not out.open(str(path), spec):
+        raise OSError(f"cannot open {path}: {out.geterror()}")
+    ok = out.write_image(data)
+    out.close()
+    if not ok:
+        raise OSError(f"cannot write {path}")
+    return path
 
 
 def read_exr(path, channels=3):

@@ -17,42 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
+from test_scenes import common
+
 DEG = math.pi / 180.0
 
 
 # --------------------------------------------------------------------------
 # images
 
-def srgb_encode(linear):
-    """Linear [0, 1] -> sRGB-encoded [0, 1] (IEC 61966-2-1), clipped."""
-    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-
-
-def write_png(path, rgb, *, srgb=True):
-    """Write ``rgb`` ``(H, W, 3)`` (row 0 = top; linear if ``srgb``, else
-    already display-encoded in [0, 1]) as an 8-bit PNG."""
-    import OpenImageIO as oiio
-
-    img = np.asarray(rgb, dtype=np.float64)[..., :3]
-    if srgb:
-        img = srgb_encode(img)
-    data = np.ascontiguousarray(np.clip(np.round(img * 255.0), 0, 255).astype(np.uint8))
-    h, w = data.shape[:2]
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    out = oiio.ImageOutput.create(str(path))
-    if out is None:
-        raise OSError(f"cannot create {path}: {oiio.geterror()}")
-    spec = oiio.ImageSpec(w, h, 3, "uint8")
-    spec.attribute("png:compressionLevel", 9)
-    if not out.open(str(path), spec):
-        raise OSError(f"cannot open {path}: {out.geterror()}")
-    ok = out.write_image(data)
-    out.close()
-    if not ok:
-        raise OSError(f"cannot write {path}")
-    return path
+# One PNG writer for the project, beside read_exr in test_scenes.common.
+srgb_encode = common.srgb_encode
+write_png = common.write_png
 
 
 def display_pair(rendered, expected, mask=None):
