@@ -18,10 +18,7 @@ Conventions
 
 from __future__ import annotations
 
-import atexit
-import glob
 import os
-import shutil
 import sys
 import tempfile
 import time
@@ -32,55 +29,20 @@ import numpy as np
 _BPY = None
 
 
-def _prepare_environment():
-    """Set TMPDIR and BLENDER_USER_RESOURCES to throwaway folders, then
-    import bpy.
-
-    Private stand-in for ``tools.bpy_env.prepare()``, used until that lands.
-    OSL compiles leave ``.oso`` files in TMPDIR, so it must be throwaway, and
-    it must be set before ``import bpy`` (Blender reads it once at start-up).
-    """
-    if "bpy" not in sys.modules:
-        base = tempfile.mkdtemp(prefix="rm_bpy_")
-        atexit.register(shutil.rmtree, base, ignore_errors=True)
-        tmp = os.path.join(base, "tmp")
-        res = os.path.join(base, "user")
-        os.makedirs(tmp)
-        os.makedirs(res)
-        os.environ["TMPDIR"] = tmp
-        os.environ["BLENDER_USER_RESOURCES"] = res
-        tempfile.tempdir = None  # re-read TMPDIR on next use
-    import bpy  # noqa: F401
-
-
-def _bundled_site_packages_first(bpy):
-    """Blender's bundled OpenImageIO (which ``oslquery`` links against) must
-    be imported before any pip-installed one: put its folder first."""
-    bundled = glob.glob(os.path.join(
-        bpy.utils.resource_path("LOCAL"), "python", "lib", "python3*", "site-packages"))
-    for path in reversed(bundled):
-        if path in sys.path:
-            sys.path.remove(path)
-        sys.path.insert(0, path)
-
-
 def import_bpy():
-    """Return the ``bpy`` module, importing it once per process after
-    preparing the environment (throwaway TMPDIR and user resources, bundled
-    site-packages first on ``sys.path``).  Uses ``tools.bpy_env.prepare`` when
-    the project provides it; a bpy imported earlier by someone else is reused
-    as it is."""
+    """Return the ``bpy`` module.  Outside Blender it is imported once by
+    ``tools.bpy_env.prepare()`` (throwaway TMPDIR and user folders, Blender's
+    bundled site-packages first on ``sys.path``); a bpy already imported
+    (inside Blender, or by the caller) is reused as it is."""
     global _BPY
     if _BPY is None:
-        if "bpy" not in sys.modules:
-            try:  # the project's shared helper, when present
-                from tools.bpy_env import prepare  # type: ignore
-            except ImportError:
-                prepare = _prepare_environment
-            prepare()
-        import bpy
-        _bundled_site_packages_first(bpy)
-        _BPY = bpy
+        from tools import bpy_env
+        if "bpy" in sys.modules:
+            bpy_env.use_bundled_site_packages()
+            import bpy
+            _BPY = bpy
+        else:
+            _BPY = bpy_env.prepare()
     return _BPY
 
 
