@@ -1016,18 +1016,21 @@ def glitter_reference(rays):
 
 
 def png_bytes(img):
-    """A grey float image, scaled by its peak and gamma 1/2.2, as 8-bit PNG bytes (no deps)."""
-    import struct
-    import zlib
-    a = np.clip(img / max(float(img.max()), 1e-12), 0, 1) ** (1 / 2.2)
-    a = (a * 255 + 0.5).astype(np.uint8)
-    raw = b"".join(b"\x00" + row.tobytes() for row in a)
+    """A grey float image, scaled by its peak and sRGB-encoded, as 8-bit PNG
+    bytes (through the project's one PNG writer)."""
+    import os
+    import tempfile
 
-    def chunk(t, d):
-        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-    return (b"\x89PNG\r\n\x1a\n"
-            + chunk(b"IHDR", struct.pack(">IIBBBBB", a.shape[1], a.shape[0], 8, 0, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+    from test_scenes import common
+    grey = img / max(float(img.max()), 1e-12)
+    fd, path = tempfile.mkstemp(suffix=".png")
+    os.close(fd)
+    try:
+        common.write_png(path, np.repeat(grey[..., None], 3, axis=-1))
+        with open(path, "rb") as f:
+            return f.read()
+    finally:
+        os.remove(path)
 
 
 def _image_svg(img, mask, title):
