@@ -37,7 +37,8 @@ import bpy
 
 from . import catalogue, oslutil, reference
 
-NODES_VERSION = 2  # 2: a closure-only shader feeds the BSDF output
+NODES_VERSION = 3  # 2: a closure-only shader feeds the BSDF output;
+# 3: the UV Tangent node only in variants that use a tangent
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 
@@ -381,10 +382,17 @@ def _build(tree, model_id: str, variant: dict) -> None:
     group_in.location = (-450.0, 0.0)
     group_out = tree.nodes.new("NodeGroupOutput")
     group_out.location = (350.0, 0.0)
-    tangent = tree.nodes.new("ShaderNodeTangent")
-    tangent.direction_type = "UV_MAP"
-    tangent.location = (-450.0, -450.0)
-    tangent.label = "Default Tangent (UV Map)"
+    # The UV tangent only where the variant uses one: Cycles computes the
+    # mesh's tangents for every render and looks them up at every shading
+    # point once the node is in the graph, used or not (measured in
+    # tools/bench_render.py).  Without it, an isotropic model's frame takes
+    # any perpendicular (rm_frame), which changes nothing.
+    tangent = None
+    if uses_tangent(model.id, variant):
+        tangent = tree.nodes.new("ShaderNodeTangent")
+        tangent.direction_type = "UV_MAP"
+        tangent.location = (-450.0, -450.0)
+        tangent.label = "Default Tangent (UV Map)"
 
     links = tree.links
     for item, p in inputs:
@@ -394,7 +402,7 @@ def _build(tree, model_id: str, variant: dict) -> None:
             if p.name in node.inputs:
                 links.new(_by_identifier(group_in.outputs, item.identifier), node.inputs[p.name])
     for node in scripts:
-        if "default_tangent" in node.inputs:  # a closure without tangent has none
+        if tangent is not None and "default_tangent" in node.inputs:
             links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
     producers = {"BSDF": closure}
     for identifier, key in sockets.items():

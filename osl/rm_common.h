@@ -149,20 +149,23 @@ float blinn_alpha_cut(float c)
     return rm_acos(exp(RM_LOG_D_CUT / c));
 }
 
+// One term of gaussian_norm's quadrature: the node s of [0, 1] maps to the
+// tilt a = cut s.
+float rm_gaussian_norm_term(float s, float cut, float c2)
+{
+    float a = cut * s;
+    float e = c2 * a;
+    return exp(-e * e) * sin(a) * cos(a);
+}
+
 // Normalisation of the Gaussian D: no closed form; the reference's 64-point
-// Gauss-Legendre rule over [0, cut].
+// Gauss-Legendre rule over [0, cut], written out term by term
+// (RM_GL_NORM_SUM) so that OSL folds it to one constant when beta is one.
 float gaussian_norm(float beta)
 {
     float c2 = gaussian_c2_from_beta(beta);
     float cut = gaussian_alpha_cut(c2);
-    float xs[RM_GL_NORM_N] = RM_GL_NORM_NODES;
-    float ws[RM_GL_NORM_N] = RM_GL_NORM_WEIGHTS;
-    float sum = 0.0;
-    for (int i = 0; i < RM_GL_NORM_N; i++) {
-        float a = cut * xs[i];
-        float e = c2 * a;
-        sum += ws[i] * exp(-e * e) * sin(a) * cos(a);
-    }
+    float sum = RM_GL_NORM_SUM(rm_gaussian_norm_term, cut, c2);
     return 1.0 / (2.0 * RM_PI * cut * sum);
 }
 

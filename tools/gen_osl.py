@@ -39,6 +39,18 @@ def _gl_array(name: str, n: int) -> list:
     return lines
 
 
+def _gl_sum(name: str, n: int) -> list:
+    """``{name}_SUM(F, A, B)``: the rule applied to ``F(node, A, B)`` written out
+    term by term.  OSL's runtime optimiser folds straight-line code whose
+    inputs are constant but not a loop, so a quadrature over a parameter
+    (the Gaussian normalisation over beta) is then computed once per
+    material instead of at every shading point."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    terms = [f"{0.5 * wi:.12g} * F({0.5 * (xi + 1.0):.12g}, A, B)" for xi, wi in zip(x, w)]
+    return [f"#define {name}_SUM(F, A, B) ( \\"] + [f"    {t} + \\" for t in terms[:-1]] + [
+        f"    {terms[-1]})"]
+
+
 def render() -> str:
     out = [
         "// SPDX-License-Identifier: GPL-3.0-or-later",
@@ -71,7 +83,7 @@ def render() -> str:
     out.append("")
     out.append("// Gauss-Legendre nodes and weights on [0, 1], as in addon/reference.py.")
     out += _gl_array("RM_GL_LAMBDA", reference.LAMBDA_NODES)
-    out += _gl_array("RM_GL_NORM", reference.GAUSSIAN_NORM_NODES)
+    out += _gl_sum("RM_GL_NORM", reference.GAUSSIAN_NORM_NODES)
     out.append(f"#define RM_LOG_D_CUT {_num(reference.LOG_D_CUT)}")
     out += ["", "#endif  // RM_GENERATED_H", ""]
     return "\n".join(out)
