@@ -5,8 +5,9 @@ One shader node group per model and per combination of its structural (enum)
 parameters, e.g. ``RM Microfacet (Beckmann, Smith, Conductor)``.  Inside a
 group: Group Input -> the model's OSL Script node (internal text, compiled
 headlessly by :mod:`oslutil`) -> Group Output, with the enum parameters set as
-constant integers on the Script node, and a Tangent node (UV map) feeding the
-shader's ``default_tangent``.
+constant integers on the Script node, and, in the variants that use a tangent
+(:func:`uses_tangent`), a Tangent node (UV map) feeding the shader's
+``default_tangent``.
 
 Interface: the model's non-enum parameters (the catalogue's labels,
 tooltips, hard limits, defaults; angles in degrees, factors as sliders), then
@@ -466,12 +467,13 @@ def _socket_value(socket):
 
 
 def snapshot(node) -> dict:
-    """Input values, links and drivers of RM group ``node``, by socket key.
+    """Input values, links, drivers and keyframes of RM group ``node``, by
+    socket key.
 
-    Drivers are kept as the F-curves themselves: their data paths hold socket
-    indices, which :func:`restore` rewrites."""
+    Drivers and keyframes are kept as the F-curves themselves: their data
+    paths hold socket indices, which :func:`restore` rewrites."""
     owner = node.id_data
-    snap = {"inputs": {}, "in_links": {}, "out_links": {}, "drivers": []}
+    snap = {"inputs": {}, "in_links": {}, "out_links": {}, "drivers": [], "keyframes": []}
     for socket in node.inputs:
         value = _socket_value(socket)
         if value is not None:
@@ -491,7 +493,28 @@ def snapshot(node) -> dict:
             if m and m.group("node") == prefix and int(m.group("index")) < len(node.inputs):
                 key = socket_key(node, node.inputs[int(m.group("index"))])
                 snap["drivers"].append((fcurve, key, m.group("rest")))
+        for fcurve in _action_fcurves(anim):
+            m = _INPUT_PATH.match(fcurve.data_path)
+            if m and m.group("node") == prefix and int(m.group("index")) < len(node.inputs):
+                socket = node.inputs[int(m.group("index"))]
+                snap["keyframes"].append(
+                    (fcurve, socket_key(node, socket), socket.name, m.group("rest")))
     return snap
+
+
+def _action_fcurves(anim) -> list:
+    """The F-curves (keyframes) of the action animating ``anim``'s owner:
+    through its slot in Blender's layered actions (4.4 and later), else the
+    action's own list."""
+    action = getattr(anim, "action", None)
+    if action is None:
+        return []
+    try:
+        from bpy_extras.anim_utils import action_get_channelbag_for_slot
+    except ImportError:
+        return list(action.fcurves)
+    bag = action_get_channelbag_for_slot(action, anim.action_slot)
+    return list(bag.fcurves) if bag is not None else []
 
 
 def _values_fit(current, value) -> bool:
@@ -502,8 +525,10 @@ def _values_fit(current, value) -> bool:
 
 def restore(node, snap: dict) -> None:
     """Put a :func:`snapshot` back on ``node`` after its group changed:
-    sockets that still exist (same key) get their values, links and drivers
-    back; drivers of sockets that no longer exist are removed."""
+    sockets that still exist (same key) get their values, links, drivers and
+    keyframes back; drivers of sockets that no longer exist are removed, and
+    their keyframes are kept on a path by socket name, which animates the
+    input again once a variant that has it is back."""
     owner = node.id_data
     by_key = {socket_key(node, s): s for s in list(node.inputs) + list(node.outputs)}
     for key, value in snap["inputs"].items():
@@ -534,6 +559,12 @@ def restore(node, snap: dict) -> None:
             continue
         fcurve.data_path = f"{prefix}.inputs[{index_of[key]}].{rest}"
         fcurve.driver.is_valid = True
+    for fcurve, key, name, rest in snap["keyframes"]:
+        if key in index_of:
+            fcurve.data_path = f"{prefix}.inputs[{index_of[key]}].{rest}"
+        else:
+            fcurve.data_path = f'{prefix}.inputs["{bpy.utils.escape_identifier(name)}"].{rest}'
+        fcurve.is_valid = True
 
 
 def _reset(node) -> None:
@@ -554,8 +585,8 @@ def _reset(node) -> None:
 def upgrade_group(tree) -> None:
     """Rebuild an RM group in place from the current catalogue and shader,
     keeping the group itself (its name, and every node that uses it) and, on
-    those nodes, the values, links and drivers of the sockets that still
-    exist."""
+    those nodes, the values, links, drivers and keyframes of the sockets that
+    still exist."""
     info = rm_info(tree)
     if info is None:
         raise ValueError(f"{tree.name!r} is not a Reflection Models group")
@@ -571,7 +602,9 @@ def upgrade_group(tree) -> None:
 def switch_variant(node, **changes):
     """Give RM group ``node`` the group of another variant of its model
     (``changes``: enum values, e.g. ``distribution="trowbridge_reitz"``),
-    keeping the values, links and drivers of the sockets both variants have.
+    keeping the values, links, drivers and keyframes of the sockets both
+    variants have (keyframes of a socket the new variant lacks are kept for a
+    switch back, see :func:`restore`).
 
     When the change makes another enum invalid (``smith_1967`` needs
     ``beckmann``; native widths need Trowbridge-Reitz or Beckmann), that enum

@@ -370,6 +370,46 @@ def test_width_switch_moves_drivers_to_the_right_sockets(nodes, bpy):
     _assert_user_setup_kept(nodes, mat, node, source, out, "ks", (0.5, 0.6, 0.7))
 
 
+def test_width_switch_keeps_keyframes_on_their_parameters(nodes, bpy):
+    """Keyframes are index-based paths too: after a switch that moves sockets
+    they must still animate their own parameter, and the keys of a socket the
+    new variant lacks must come back with it."""
+    needs_shader("microfacet")
+    tree = nodes.ensure_group("microfacet", distribution="trowbridge_reitz")
+    mat = new_material(bpy)
+    node = add_group_node(mat, tree)
+    strength = nodes.input_socket(node, "light_strength")
+    beta = nodes.input_socket(node, "beta")
+    for frame, s, b in ((1, 1.0, 0.1), (10, 3.0, 0.4)):
+        strength.default_value, beta.default_value = s, b
+        strength.keyframe_insert("default_value", frame=frame)
+        beta.keyframe_insert("default_value", frame=frame)
+    fcurves = {fc.data_path: fc for fc in nodes._action_fcurves(mat.node_tree.animation_data)}
+    strength_curve = fcurves[strength.path_from_id("default_value")]
+    beta_curve = fcurves[beta.path_from_id("default_value")]
+    old_index = list(node.inputs).index(strength)
+
+    nodes.switch_variant(node, width_mode="alpha_xy")
+
+    strength = nodes.input_socket(node, "light_strength")
+    assert list(node.inputs).index(strength) != old_index
+    assert strength_curve.data_path == strength.path_from_id("default_value")
+    assert strength_curve.evaluate(10) == pytest.approx(3.0)
+    with pytest.raises(KeyError):
+        nodes.input_socket(node, "beta")
+    with pytest.raises(ValueError):  # kept, but it animates nothing in this variant
+        mat.node_tree.path_resolve(beta_curve.data_path)
+    assert [k.co[1] for k in beta_curve.keyframe_points] == pytest.approx([0.1, 0.4], **F32)
+
+    nodes.switch_variant(node, width_mode="beta")
+
+    socket_path, prop = beta_curve.data_path.rsplit(".", 1)
+    assert prop == "default_value"
+    assert mat.node_tree.path_resolve(socket_path) == nodes.input_socket(node, "beta")
+    assert strength_curve.data_path == nodes.input_socket(node, "light_strength").path_from_id(
+        "default_value")
+
+
 def test_variant_switch_resets_a_conflicting_enum(nodes, bpy):
     needs_shader("microfacet")
     tree = nodes.ensure_group("microfacet", shadowing="smith_1967")
