@@ -230,68 +230,23 @@ float S_smith_1967(float wx, float wy, float wz, float ax, float ay)
     return bracket / (1.0 + Lambda_beckmann(wx, wy, wz, ax, ay));
 }
 
-// D(alpha) of Blinn (shape = c) or Gaussian (shape = c2), with its
-// normalisation K computed once by the caller.
-float rm_D_of_alpha(float alpha, float shape, float K, int distribution)
-{
-    if (distribution == RM_DISTRIBUTION_BLINN)
-        return K * pow(cos(alpha), shape);
-    float e = shape * alpha;
-    return K * exp(-e * e);
-}
-
-// A-(theta) = cos(theta) Lambda: the reference's quadrature, node for node
-// (analytic azimuth, alpha = alpha0 + span s^2 (3 - 2s), Gauss-Legendre).
-// K is the distribution's normalisation (gaussian_norm(beta) for Gaussian).
-float Aminus_quadrature(float cos_theta, float beta, int distribution, float K)
-{
-    float ct = clamp(cos_theta, 0.0, 1.0);
-    float theta = rm_acos(ct);
-    float alpha0 = 0.5 * RM_PI - theta;
-    float shape, cut;
-    if (distribution == RM_DISTRIBUTION_BLINN) {
-        shape = blinn_exponent_from_beta(beta);
-        cut = blinn_alpha_cut(shape);
-    }
-    else {
-        shape = gaussian_c2_from_beta(beta);
-        cut = gaussian_alpha_cut(shape);
-    }
-    float span = max(cut - alpha0, 0.0);
-    if (span <= 0.0)
-        return 0.0;
-    float xs[RM_GL_LAMBDA_N] = RM_GL_LAMBDA_NODES;
-    float ws[RM_GL_LAMBDA_N] = RM_GL_LAMBDA_WEIGHTS;
-    float sum = 0.0;
-    for (int i = 0; i < RM_GL_LAMBDA_N; i++) {
-        float s = xs[i];
-        float alpha = alpha0 + span * (s * s * (3.0 - 2.0 * s));
-        float jac = 6.0 * span * s * (1.0 - s);
-        float diff = max(-cos(theta + alpha) * cos(theta - alpha), 0.0);
-        float root = sqrt(diff);
-        float B = ct * cos(alpha);
-        float inner = 2.0 * (root - B * rm_atan2(root, B));
-        sum += ws[i] * rm_D_of_alpha(alpha, shape, K, distribution) * sin(alpha) * inner * jac;
-    }
-    return sum;
-}
-
-// Lambda of Blinn or Gaussian by quadrature (the reference tabulates the same
-// quadrature in Lambda_table).
-float Lambda_quadrature(float wx, float wy, float wz, float beta, int distribution, float K)
+// Lambda of Blinn or Gaussian: no closed form; the Chebyshev series of the
+// reference's quadrature (rm_generated.h, from reference.lambda_chebyshev),
+// in x = (2/pi) atan(a), a = cot(theta)/m with m Beckmann's m of the same
+// beta: Lambda = g(beta, x) / a.  beta must lie in the catalogue's range.
+float Lambda_chebyshev(float wx, float wy, float wz, float beta, int distribution)
 {
     if (wz <= 0.0)
         return 1e30;
-    float len = sqrt(wx * wx + wy * wy + wz * wz);
-    return Aminus_quadrature(wz / len, beta, distribution, K) / (wz / len);
-}
-
-// Normalisation constant of the Blinn or Gaussian D for the quadratures.
-float rm_norm_of(float beta, int distribution)
-{
-    if (distribution == RM_DISTRIBUTION_BLINN)
-        return (blinn_exponent_from_beta(beta) + 2.0) / (2.0 * RM_PI);
-    return gaussian_norm(beta);
+    float rm = sqrt(wx * wx + wy * wy) * beckmann_m_from_beta(beta);
+    if (rm <= 0.0)
+        return 0.0;  // normal incidence: no back-facing facets
+    float x = rm_atan2(wz, rm) * (2.0 / RM_PI);
+    float tb = 2.0 * (beta - RM_CHEB_BETA_MIN) / (RM_CHEB_BETA_MAX - RM_CHEB_BETA_MIN) - 1.0;
+    float tx = 2.0 * clamp(x, 0.0, 1.0) - 1.0;
+    float g = (distribution == RM_DISTRIBUTION_BLINN) ? rm_lambda_g_blinn(tb, tx)
+                                                      : rm_lambda_g_gaussian(tb, tx);
+    return g * rm / wz;
 }
 
 // V-groove: min(1, 2(N.H)(N.E)/(E.H), 2(N.H)(N.L)/(L.H)); E.H = L.H.

@@ -65,7 +65,9 @@ class FurnaceScene:
         return render(self, path)
 
 
-def _uv_sphere_mesh(name, segments):
+def uv_sphere_mesh(name, segments, *, uvs=False):
+    """A smooth UV sphere of radius 1 with ``segments`` around (and a UV map
+    when ``uvs``)."""
     bpy = common.import_bpy()
     import bmesh
 
@@ -73,6 +75,8 @@ def _uv_sphere_mesh(name, segments):
     bm = bmesh.new()
     try:
         kwargs = dict(u_segments=segments, v_segments=max(3, segments // 2))
+        if uvs:
+            kwargs["calc_uvs"] = True
         try:
             bmesh.ops.create_uvsphere(bm, radius=1.0, **kwargs)
         except TypeError:  # older argument name
@@ -112,7 +116,7 @@ def build_furnace_scene(material, *, view_dir=(0.0, 0.0, 1.0), resolution=128, s
     common.set_linear_exr_output(scene, (w, h))
     common.set_world_background(scene, float(environment))
     common.add_orthographic_camera(scene, view_dir, ortho_scale, up_hint=up_hint)
-    mesh = _uv_sphere_mesh(name + "_sphere", segments)
+    mesh = uv_sphere_mesh(name + "_sphere", segments)
     if material is not None:
         material.cycles.emission_sampling = 'NONE'
         mesh.materials.append(material)

@@ -17,9 +17,9 @@ COMMON = (OSL / "rm_common.h").read_text()
 # Formulas the OSL header must mirror by name (same argument order by review).
 MIRRORED = [name for name in reference.__all__
             if name.split("_")[0] in ("D", "Lambda", "F", "G", "S")
-            or name.endswith("_from_beta") or name in ("gaussian_norm", "Aminus_quadrature")]
-# The reference tabulates the quadrature that OSL evaluates directly.
-RENAMED = {"Lambda_table": "Lambda_quadrature"}
+            or name.endswith("_from_beta") or name == "gaussian_norm"]
+# The reference tabulates the quadrature; the shaders evaluate its Chebyshev series.
+RENAMED = {"Lambda_table": "Lambda_chebyshev"}
 
 
 NUMBER = re.compile(r"-?\d+\.\d*(?:e-?\d+)?")

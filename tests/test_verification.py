@@ -89,6 +89,19 @@ def test_exact_mode_matches_reference(verify, api, case):
     assert r["max_rel_error"] <= cases_mod.EXACT_MODE_TOLERANCE
 
 
+@pytest.mark.parametrize("distribution", ["blinn", "gaussian"])
+@pytest.mark.parametrize("beta_deg", [1.0, 4.0, 60.0, 85.0])
+def test_exact_smith_lambda_across_beta(verify, api, distribution, beta_deg):
+    """The shaders' Chebyshev series for the Blinn and Gaussian Lambda against
+    the reference's table, at the ends of the beta range and between."""
+    params = {"distribution": distribution, "shadowing": "smith_correlated",
+              "beta": beta_deg * math.pi / 180.0}
+    case = cases_mod.Case("microfacet", params, f"{distribution}/smith_correlated {beta_deg}",
+                          {None: cases_mod.APPROX})
+    r = _run(verify, api, case, "exact")
+    assert r["max_rel_error"] <= cases_mod.EXACT_MODE_TOLERANCE  # float32 against float64
+
+
 @pytest.mark.parametrize("case", cases_mod.CASES, ids=_slug)
 def test_path_traced_mode(verify, api, case):
     r = _run(verify, api, case, "path_traced")

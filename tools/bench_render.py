@@ -2,121 +2,176 @@
 """Render cost of each model relative to Blender's native Glossy BSDF.
 
 ``make bench`` (through tools.bench) or ``python -m tools.bench_render``.
-Every model (at its defaults; the presets too) is rendered on the same
-gonioreflectometer scene as a native Glossy BSDF (GGX, roughness 0.5), at
-equal samples (default 256x256, 32 spp, direct light only, all CPU
-threads), in path-traced mode (its BSDF output) and in exact mode (its
-Direct output with the shadow ray on).  Each time is the best of
-``--repeats`` render calls (default 2) after a warm-up render (OSL compiles
-its shaders on the first), in CPU time of the process (every render
-thread): other jobs on a shared machine disturb it less than wall time.
-The native render is re-timed beside every model, so a ratio compares
-renders made under the same load; the load average is printed.  Targets:
-path traced <= 1.15x, exact <= 0.7x the native Glossy.  Measures and
+
+Scene (test_scenes/bench.py): a sphere filling the frame, so every pixel
+shades the material under test; a sun; direct light only; default 128x128,
+16 samples, all CPU threads.  Each material renders ``--frames`` frames as
+one animation with persistent data: the first frame also builds the scene
+and compiles the shaders (for OSL, its runtime optimisation and JIT), the
+later ones only render.  The ratio compares the later frames, in CPU time of
+the process (every render thread); the one-time set-up (first frame minus a
+later one) is printed beside it.
+
+Baseline: Blender's native Glossy BSDF (GGX, roughness 0.5) in Cycles'
+default shading system (SVM), at equal samples.  Each model is timed in
+path-traced mode (its BSDF output) and in exact mode (its Direct output,
+shadow ray on), right after a native render; ``--rounds`` rounds of this,
+and the ratio printed is the median over rounds with its range: on a shared
+2-core machine the same render's time moves by up to 1.7x from one minute to
+the next, and a ratio of renders made seconds apart cancels most of that.
+
+The first two rows are Blender's own Glossy BSDF with the OSL shading
+system on: the cost of OSL itself, which a path-traced OSL material cannot
+go below.  Targets: path traced <= 1.15x, exact <= 0.7x.  Measures and
 prints; asserts nothing.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import statistics
 import sys
-import time
+import tempfile
 
 TARGET_PATH_TRACED = 1.15
 TARGET_EXACT = 0.7
-LIGHT = (0.35, 0.25, 0.90)
+DEG = math.pi / 180.0
+
+# (label, model or None for a native Glossy with OSL on, params or the native distribution)
+ROWS = [
+    ("native Glossy GGX, OSL", None, "GGX"),
+    ("native Glossy Beckmann, OSL", None, "BECKMANN"),
+    ("lambert", "lambert", {}),
+    ("phong", "phong", {}),
+    ("blinn_phong", "blinn_phong", {}),
+    ("microfacet", "microfacet", {}),
+    ("microfacet gaussian/smith", "microfacet", {"distribution": "gaussian", "shadowing": "smith"}),
+    ("kajiya_kay", "kajiya_kay", {}),
+    ("ward", "ward", {}),
+    ("torrance_sparrow", "torrance_sparrow", {}),
+    ("cook_torrance", "cook_torrance", {}),
+]
+MODES = ("path_traced", "exact")
 
 
-def _scene(mat, *, resolution, samples, api=None, node=None):
-    from test_scenes import gonio, verify
-
-    if node is not None:
-        verify.set_sun(node, gonio.normalize(LIGHT), 1.0)
-    g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=resolution, name="bench")
-    g.scene.cycles.samples = int(samples)
-    if api is not None:
-        api.enable_osl(g.scene)
-    return g
+def _median_range(values):
+    return statistics.median(values), min(values), max(values)
 
 
-def _best(g, repeats, warm_up=True):
+class _Timer:
+    """Renders a scene's animation and splits its CPU time into the frames
+    after the first (rendering) and the first frame's extra (set-up)."""
+
+    def __init__(self, out_dir):
+        self.out_dir = out_dir
+
+    def __call__(self, scene):
+        from test_scenes import bench as bench_scene
+        from test_scenes import verify
+
+        with verify.quiet():
+            frames = bench_scene.frame_cpu_seconds(scene, self.out_dir)
+        later = frames[1:]
+        return sum(later), frames[0] - statistics.median(later)
+
+
+def _materials(api, label, model, params):
+    """``[(mode, material, node or None)]`` for one row."""
     from test_scenes import verify
 
-    times = []
-    with verify.quiet():
-        for _ in range(repeats + int(warm_up)):  # a first render compiles / warms up
-            c0 = time.process_time()
-            g.render()
-            times.append(time.process_time() - c0)
-    return min(times[int(warm_up):])
+    if model is None:
+        return [("path_traced", verify.native_glossy_material(f"bench {label}", params, 0.5), None)]
+    out = []
+    for mode in MODES:
+        mat = verify.new_material(f"bench {label} {mode}")
+        out.append((mode, mat, api.add_model(mat, model, mode=mode, **params)))
+    return out
 
 
-def bench(api, *, resolution=256, samples=32, repeats=2, models=None):
-    """Per model: ``{"model", "native", "path_traced", "exact"}`` seconds.
-    The native Glossy is re-timed beside every model, so that a ratio
-    compares renders made under the same machine load."""
-    from addon import catalogue
-    from test_scenes import verify
+def bench(api, *, resolution=128, samples=16, frames=4, rounds=3, rows=None):
+    """Per row: ``{"label", mode: {"ratio": (median, min, max), "setup": s}}``
+    with the ratio to the native Glossy BSDF rendered just before it."""
+    from types import SimpleNamespace
 
-    native = verify.native_glossy_material("bench_native", "GGX", 0.5)
-    g_native = _scene(native, resolution=resolution, samples=samples)
-    _best(g_native, 1)
-    rows = []
+    from test_scenes import bench as bench_scene
+    from test_scenes import common, verify
+
+    if frames < 2:
+        raise ValueError("frames must be at least 2 (the first one compiles)")
+    rows = ROWS if rows is None else rows
+    made = []  # (holder of the scene, material) to dispose of
+
+    def scene(mat, *, osl, node=None, mode=None):
+        if mode == "exact":
+            verify.set_sun(node, common.normalize(bench_scene.LIGHT), 1.0)
+        sc = bench_scene.build_bench_scene(mat, resolution=resolution, samples=samples,
+                                           frames=frames, osl=osl, name=f"bench{len(made)}")
+        made.append((SimpleNamespace(scene=sc), mat))
+        return sc
+
     try:
-        # the same native node with the OSL shading system on: the cost of OSL itself
-        g_osl = _scene(native, resolution=resolution, samples=samples, api=api)
-        try:
-            row = {"model": "(native Glossy, OSL on)"}
-            row["path_traced"] = _best(g_osl, repeats)
-            row["exact"] = float("nan")
-        finally:
-            verify.dispose(g_osl)
-        row["native"] = _best(g_native, repeats, warm_up=False)
-        rows.append(row)
-        for model in models or (*catalogue.MODELS, *catalogue.PRESETS):
-            row = {"model": model}
-            for mode in ("path_traced", "exact"):
-                mat = verify.new_material(f"bench_{model}_{mode}")
-                node = api.add_model(mat, model, mode=mode)
-                g = _scene(mat, resolution=resolution, samples=samples, api=api,
-                           node=node if mode == "exact" else None)
-                try:
-                    row[mode] = _best(g, repeats)
-                finally:
-                    verify.dispose(g)
-                    verify.remove_material(mat)
-            row["native"] = _best(g_native, repeats, warm_up=False)
-            rows.append(row)
+        native = scene(verify.native_glossy_material("bench native", "GGX", 0.5), osl=False)
+        plan = []
+        for label, model, params in rows:
+            plan.append((label, {mode: scene(mat, osl=True, node=node, mode=mode)
+                                 for mode, mat, node in _materials(api, label, model, params)}))
+        measured = {label: {mode: ([], []) for mode in scenes} for label, scenes in plan}
+        with tempfile.TemporaryDirectory(prefix="rm_bench_") as out_dir:
+            timer = _Timer(out_dir)
+            timer(native)  # warm-up: the session's first render also loads Cycles' kernels
+            for r in range(rounds):
+                for label, scenes in plan:
+                    base, _setup = timer(native)
+                    for mode, sc in scenes.items():
+                        t, setup = timer(sc)
+                        measured[label][mode][0].append(t / base)
+                        measured[label][mode][1].append(setup)
+                print(f"  round {r + 1}/{rounds} done", flush=True)
     finally:
-        verify.dispose(g_native)
-        verify.remove_material(native)
-    return rows
+        for holder, mat in made:
+            verify.dispose(holder)
+            verify.remove_material(mat)
+    results = []
+    for label, per_mode in measured.items():
+        row = {"label": label}
+        for mode, (ratios, setups) in per_mode.items():
+            row[mode] = {"ratio": _median_range(ratios), "setup": statistics.median(setups)}
+        results.append(row)
+    return results
 
 
-def print_table(rows, resolution, samples):
-    native_ms = ", ".join(f"{r['native'] * 1000:.0f}" for r in rows)
-    print(f"\nRender time relative to the native Glossy BSDF (GGX r=0.5, re-timed beside each "
-          f"model: {native_ms} ms CPU), {resolution}x{resolution}, {samples} spp, gonio scene, "
-          f"direct light, {os.cpu_count()} CPU threads")
-    print(f"{'model':24s} {'path traced':>12s} {'ratio':>6s} {'<=' + format(TARGET_PATH_TRACED, 'g'):>6s}"
-          f"  {'exact+shadow':>12s} {'ratio':>6s} {'<=' + format(TARGET_EXACT, 'g'):>6s}")
-    for r in rows:
-        pt, ex = r["path_traced"] / r["native"], r["exact"] / r["native"]
-        line = (f"{r['model']:24.24s} {r['path_traced'] * 1000:10.0f}ms {pt:6.2f} "
-                f"{'yes' if pt <= TARGET_PATH_TRACED else 'NO':>6s}  ")
-        if ex == ex:  # not NaN
-            line += (f"{r['exact'] * 1000:10.0f}ms {ex:6.2f} "
-                     f"{'yes' if ex <= TARGET_EXACT else 'NO':>6s}")
-        print(line)
+def _cell(entry, target):
+    if entry is None:
+        return f"{'':>19s} {'':>5s} {'':>7s}"
+    med, lo, hi = entry["ratio"]
+    ok = "yes" if med <= target else "NO"
+    return (f"{med:5.2f} [{lo:4.2f}-{hi:4.2f}] {ok:>5s} {entry['setup'] * 1000:5.0f}ms")
+
+
+def print_table(results, *, resolution, samples, frames, rounds):
+    print(f"\nRender time relative to the native Glossy BSDF (GGX, roughness 0.5, SVM), "
+          f"median [range] of {rounds} rounds; {resolution}x{resolution}, {samples} spp, "
+          f"frames 2-{frames} of an animation with persistent data; CPU time of all "
+          f"{os.cpu_count()} threads; set-up = first frame's extra (scene build, shader compile)")
+    print(f"{'':30s} {'path traced':^19s} {'<=' + format(TARGET_PATH_TRACED, 'g'):>5s} "
+          f"{'set-up':>7s}  {'exact + shadow ray':^19s} {'<=' + format(TARGET_EXACT, 'g'):>5s} "
+          f"{'set-up':>7s}")
+    for row in results:
+        print(f"{row['label']:30.30s} {_cell(row.get('path_traced'), TARGET_PATH_TRACED)}  "
+              f"{_cell(row.get('exact'), TARGET_EXACT)}")
+    print("The native rows are the floor of a path-traced OSL material: the same closure "
+          "with nothing around it.")
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m tools.bench_render",
                                      description=__doc__.splitlines()[0])
-    parser.add_argument("--resolution", type=int, default=256)
-    parser.add_argument("--samples", type=int, default=32)
-    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--resolution", type=int, default=128)
+    parser.add_argument("--samples", type=int, default=16)
+    parser.add_argument("--frames", type=int, default=4)
+    parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--installed", action="store_true",
                         help="build, install and use the extension zip instead of the repo's addon.api")
     args = parser.parse_args(argv if argv is not None else [])
@@ -130,8 +185,10 @@ def main(argv=None):
         api = importlib.import_module(bpy_env.install_extension(build_zip()) + ".api")
     else:
         from addon import api
-    rows = bench(api, resolution=args.resolution, samples=args.samples, repeats=args.repeats)
-    print_table(rows, args.resolution, args.samples)
+    results = bench(api, resolution=args.resolution, samples=args.samples, frames=args.frames,
+                    rounds=args.rounds)
+    print_table(results, resolution=args.resolution, samples=args.samples, frames=args.frames,
+                rounds=args.rounds)
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(f"(Blender {bpy.app.version_string}; load average {load} on {os.cpu_count()} CPUs; "
           "measured, not asserted)")

@@ -3,7 +3,9 @@
 
 The header holds what the shaders must share with the catalogue and the
 reference: every parameter's clamping limits, the integer codes of the enum
-choices, and the Gauss-Legendre nodes the reference's quadratures use.  A
+choices, the Gaussian normalisation's Gauss-Legendre rule and the Chebyshev
+series of the Blinn and Gaussian Smith Lambda (both from addon.reference),
+written out as straight-line code that OSL folds when beta is constant.  A
 test fails when the committed header is out of date.
 """
 
@@ -28,17 +30,6 @@ def _num(x: float) -> str:
     return repr(float(x))
 
 
-def _gl_array(name: str, n: int) -> list:
-    x, w = np.polynomial.legendre.leggauss(n)
-    s = 0.5 * (x + 1.0)
-    w = 0.5 * w
-    # 12 significant digits: far beyond float32, and stable across numpy versions.
-    lines = [f"#define {name}_N {n}"]
-    lines.append(f"#define {name}_NODES {{ " + ", ".join(f"{v:.12g}" for v in s) + " }")
-    lines.append(f"#define {name}_WEIGHTS {{ " + ", ".join(f"{v:.12g}" for v in w) + " }")
-    return lines
-
-
 def _gl_sum(name: str, n: int) -> list:
     """``{name}_SUM(F, A, B)``: the rule applied to ``F(node, A, B)`` written out
     term by term.  OSL's runtime optimiser folds straight-line code whose
@@ -49,6 +40,50 @@ def _gl_sum(name: str, n: int) -> list:
     terms = [f"{0.5 * wi:.12g} * F({0.5 * (xi + 1.0):.12g}, A, B)" for xi, wi in zip(x, w)]
     return [f"#define {name}_SUM(F, A, B) ( \\"] + [f"    {t} + \\" for t in terms[:-1]] + [
         f"    {terms[-1]})"]
+
+
+def _clenshaw_lines(coeffs, t: str, result: str) -> list:
+    """OSL statements setting ``result`` to sum_k coeffs[k] T_k(t), the
+    recurrence written out (four steps a line) so that it folds."""
+    steps = [f"rm_clenshaw_step({c:.12g}, 2.0 * {t}, b1, b2);" for c in coeffs[-2:0:-1]]
+    lines = [f"    b1 = {coeffs[-1]:.12g}; b2 = 0.0;"]
+    lines += ["    " + " ".join(steps[i:i + 4]) for i in range(0, len(steps), 4)]
+    lines.append(f"    {result} = {coeffs[0]:.12g} + {t} * b1 - b2;")
+    return lines
+
+
+def _lambda_chebyshev_functions() -> list:
+    out = [
+        "// Smith Lambda of Blinn and Gaussian: g(beta, x) = a Lambda as the",
+        "// two-dimensional Chebyshev series of addon.reference.lambda_chebyshev, in",
+        "// tb (beta mapped to [-1, 1]) and tx = 2x - 1.  Written out term by term:",
+        "// with a constant beta OSL folds the beta part to RM_CHEB_NX constants.",
+        f"#define RM_CHEB_NX {reference.CHEB_NX}",
+        f"#define RM_CHEB_NB {reference.CHEB_NB}",
+        f"#define RM_CHEB_BETA_MIN {_num(reference.CHEB_BETA[0])}",
+        f"#define RM_CHEB_BETA_MAX {_num(reference.CHEB_BETA[1])}",
+        "",
+        "void rm_clenshaw_step(float c, float t2, output float b1, output float b2)",
+        "{",
+        "    float b0 = c + t2 * b1 - b2;",
+        "    b2 = b1;",
+        "    b1 = b0;",
+        "}",
+    ]
+    nx = reference.CHEB_NX
+    for dist in ("blinn", "gaussian"):
+        coeffs = reference.lambda_chebyshev(dist)
+        out += ["", f"float rm_lambda_g_{dist}(float tb, float tx)", "{",
+                "    float b1, b2;",
+                "    float " + ", ".join(f"c{i}" for i in range(nx)) + ";"]
+        for i in range(nx):
+            out += _clenshaw_lines(coeffs[:, i], "tb", f"c{i}")
+        out += ["    float g;"]
+        steps = [f"rm_clenshaw_step(c{i}, 2.0 * tx, b1, b2);" for i in range(nx - 2, 0, -1)]
+        out.append(f"    b1 = c{nx - 1}; b2 = 0.0;")
+        out += ["    " + " ".join(steps[i:i + 4]) for i in range(0, len(steps), 4)]
+        out += ["    g = c0 + tx * b1 - b2;", "    return g;", "}"]
+    return out
 
 
 def render() -> str:
@@ -81,10 +116,11 @@ def render() -> str:
     out.append("// Width modes of the microfacet shader: beta, isotropic alpha, alpha_x/alpha_y.")
     out += ["#define RM_WIDTH_BETA 0", "#define RM_WIDTH_ALPHA 1", "#define RM_WIDTH_ALPHA_XY 2"]
     out.append("")
-    out.append("// Gauss-Legendre nodes and weights on [0, 1], as in addon/reference.py.")
-    out += _gl_array("RM_GL_LAMBDA", reference.LAMBDA_NODES)
+    out.append("// The Gaussian normalisation's Gauss-Legendre rule on [0, 1], as in addon/reference.py.")
     out += _gl_sum("RM_GL_NORM", reference.GAUSSIAN_NORM_NODES)
     out.append(f"#define RM_LOG_D_CUT {_num(reference.LOG_D_CUT)}")
+    out.append("")
+    out += _lambda_chebyshev_functions()
     out += ["", "#endif  // RM_GENERATED_H", ""]
     return "\n".join(out)
 
