@@ -233,20 +233,25 @@ float S_smith_1967(float wx, float wy, float wz, float ax, float ay)
 // Lambda of Blinn or Gaussian: no closed form; the Chebyshev series of the
 // reference's quadrature (rm_generated.h, from reference.lambda_chebyshev),
 // in x = (2/pi) atan(a), a = cot(theta)/m with m Beckmann's m of the same
-// beta: Lambda = g(beta, x) / a.  beta must lie in the catalogue's range.
-float Lambda_chebyshev(float wx, float wy, float wz, float beta, int distribution)
+// beta: Lambda = g(beta, x) / a.  k holds the series' coefficients in x for
+// this beta (rm_lambda_chebyshev_coeffs), m = beckmann_m_from_beta(beta).
+float rm_lambda_chebyshev_x(float wx, float wy, float wz, float m, rm_cheb_x k)
 {
     if (wz <= 0.0)
         return 1e30;
-    float rm = sqrt(wx * wx + wy * wy) * beckmann_m_from_beta(beta);
+    float rm = sqrt(wx * wx + wy * wy) * m;
     if (rm <= 0.0)
         return 0.0;  // normal incidence: no back-facing facets
     float x = rm_atan2(wz, rm) * (2.0 / RM_PI);
-    float tb = 2.0 * (beta - RM_CHEB_BETA_MIN) / (RM_CHEB_BETA_MAX - RM_CHEB_BETA_MIN) - 1.0;
-    float tx = 2.0 * clamp(x, 0.0, 1.0) - 1.0;
-    float g = (distribution == RM_DISTRIBUTION_BLINN) ? rm_lambda_g_blinn(tb, tx)
-                                                      : rm_lambda_g_gaussian(tb, tx);
-    return g * rm / wz;
+    return rm_lambda_chebyshev_g(k, 2.0 * clamp(x, 0.0, 1.0) - 1.0) * rm / wz;
+}
+
+// The same for one direction; beta must lie in the catalogue's range.
+float Lambda_chebyshev(float wx, float wy, float wz, float beta, int distribution)
+{
+    rm_cheb_x k;
+    rm_lambda_chebyshev_coeffs(distribution, beta, k);
+    return rm_lambda_chebyshev_x(wx, wy, wz, beckmann_m_from_beta(beta), k);
 }
 
 // V-groove: min(1, 2(N.H)(N.E)/(E.H), 2(N.H)(N.L)/(L.H)); E.H = L.H.

@@ -42,26 +42,38 @@ def _gl_sum(name: str, n: int) -> list:
         f"    {terms[-1]})"]
 
 
-def _clenshaw_lines(coeffs, t: str, result: str) -> list:
+def _clenshaw_lines(coeffs, t: str, result: str, indent: str = "    ") -> list:
     """OSL statements setting ``result`` to sum_k coeffs[k] T_k(t), the
-    recurrence written out (four steps a line) so that it folds."""
-    steps = [f"rm_clenshaw_step({c:.12g}, 2.0 * {t}, b1, b2);" for c in coeffs[-2:0:-1]]
-    lines = [f"    b1 = {coeffs[-1]:.12g}; b2 = 0.0;"]
-    lines += ["    " + " ".join(steps[i:i + 4]) for i in range(0, len(steps), 4)]
-    lines.append(f"    {result} = {coeffs[0]:.12g} + {t} * b1 - b2;")
+    recurrence written out (four steps a line) so that it folds.  ``coeffs``
+    are numbers or OSL expressions."""
+    def text(c):
+        return c if isinstance(c, str) else f"{c:.12g}"
+
+    steps = [f"rm_clenshaw_step({text(c)}, 2.0 * {t}, b1, b2);" for c in coeffs[-2:0:-1]]
+    lines = [f"{indent}b1 = {text(coeffs[-1])}; b2 = 0.0;"]
+    lines += [indent + " ".join(steps[i:i + 4]) for i in range(0, len(steps), 4)]
+    lines.append(f"{indent}{result} = {text(coeffs[0])} + {t} * b1 - b2;")
     return lines
 
 
 def _lambda_chebyshev_functions() -> list:
+    nx = reference.CHEB_NX
+    fields = [f"c{i}" for i in range(nx)]
     out = [
         "// Smith Lambda of Blinn and Gaussian: g(beta, x) = a Lambda as the",
         "// two-dimensional Chebyshev series of addon.reference.lambda_chebyshev, in",
-        "// tb (beta mapped to [-1, 1]) and tx = 2x - 1.  Written out term by term:",
-        "// with a constant beta OSL folds the beta part to RM_CHEB_NX constants.",
-        f"#define RM_CHEB_NX {reference.CHEB_NX}",
+        "// tb (beta mapped to [-1, 1]) and tx = 2x - 1.  rm_lambda_chebyshev_coeffs",
+        "// sums the beta part into the RM_CHEB_NX coefficients of the x series, once",
+        "// per shader; it is written out term by term, so OSL folds it to constants",
+        "// when beta is constant.  rm_lambda_chebyshev_g sums the x series.",
+        f"#define RM_CHEB_NX {nx}",
         f"#define RM_CHEB_NB {reference.CHEB_NB}",
         f"#define RM_CHEB_BETA_MIN {_num(reference.CHEB_BETA[0])}",
         f"#define RM_CHEB_BETA_MAX {_num(reference.CHEB_BETA[1])}",
+        "",
+        "struct rm_cheb_x {",
+        "    float " + ", ".join(fields) + ";",
+        "};",
         "",
         "void rm_clenshaw_step(float c, float t2, output float b1, output float b2)",
         "{",
@@ -69,20 +81,26 @@ def _lambda_chebyshev_functions() -> list:
         "    b2 = b1;",
         "    b1 = b0;",
         "}",
+        "",
+        "// beta in radians, inside [RM_CHEB_BETA_MIN, RM_CHEB_BETA_MAX].",
+        "void rm_lambda_chebyshev_coeffs(int distribution, float beta, output rm_cheb_x k)",
+        "{",
+        "    float tb = 2.0 * (beta - RM_CHEB_BETA_MIN) / (RM_CHEB_BETA_MAX - RM_CHEB_BETA_MIN) - 1.0;",
+        "    float b1, b2;",
     ]
-    nx = reference.CHEB_NX
-    for dist in ("blinn", "gaussian"):
+    for n, dist in enumerate(("blinn", "gaussian")):
         coeffs = reference.lambda_chebyshev(dist)
-        out += ["", f"float rm_lambda_g_{dist}(float tb, float tx)", "{",
-                "    float b1, b2;",
-                "    float " + ", ".join(f"c{i}" for i in range(nx)) + ";"]
+        out.append(f"    if (distribution == RM_DISTRIBUTION_{dist.upper()}) {{" if n == 0
+                   else "    else {")
         for i in range(nx):
-            out += _clenshaw_lines(coeffs[:, i], "tb", f"c{i}")
-        out += ["    float g;"]
-        steps = [f"rm_clenshaw_step(c{i}, 2.0 * tx, b1, b2);" for i in range(nx - 2, 0, -1)]
-        out.append(f"    b1 = c{nx - 1}; b2 = 0.0;")
-        out += ["    " + " ".join(steps[i:i + 4]) for i in range(0, len(steps), 4)]
-        out += ["    g = c0 + tx * b1 - b2;", "    return g;", "}"]
+            out += _clenshaw_lines(coeffs[:, i], "tb", f"k.c{i}", indent="        ")
+        out.append("    }")
+    out += ["}", "",
+            "float rm_lambda_chebyshev_g(rm_cheb_x k, float tx)",
+            "{",
+            "    float b1, b2, g;"]
+    out += _clenshaw_lines([f"k.{f}" for f in fields], "tx", "g")
+    out += ["    return g;", "}"]
     return out
 
 
