@@ -570,3 +570,28 @@ def test_render_time(bpy, tmp_path):
             print(f"{'OSL' if g.scene.cycles.shading_system else 'SVM'} {res}x{res}: "
                   f"{g.last_render_seconds * 1000:.0f} ms")
             assert g.last_render_seconds < 20
+
+
+def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
+    """``make bench``'s render table at a toy size: every kind of row (a
+    native floor, a model in both modes) renders and is reported.  Speed is
+    printed by ``make bench``, never asserted in a test."""
+    from addon import api
+    from tools import bench_render
+
+    rows = [row for row in bench_render.ROWS if row[1] is None and "anisotropic" in row[2]]
+    rows += [("ward", "ward", {})]
+    n_materials = len(bpy.data.materials)
+    results = bench_render.bench(api, resolution=16, samples=1, frames=2, rounds=1, rows=rows)
+    assert [r["label"] for r in results] == [label for label, _model, _params in rows]
+    assert set(results[0]) == {"label", "path_traced"}
+    assert set(results[1]) == {"label", "path_traced", "exact"}
+    for row in results:
+        for mode in ("path_traced", "exact"):
+            if mode in row:
+                med, lo, hi = row[mode]["ratio"]
+                assert 0.0 < lo <= med <= hi < float("inf")
+    assert len(bpy.data.materials) == n_materials  # the benchmark cleans up after itself
+    bench_render.print_table(results, resolution=16, samples=1, frames=2, rounds=1)
+    table = capsys.readouterr().out
+    assert "native aniso" in table and "ward" in table and "<=1.15" in table and "<=0.7" in table
