@@ -30,7 +30,6 @@ prints; asserts nothing.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import statistics
 import sys
@@ -38,7 +37,6 @@ import tempfile
 
 TARGET_PATH_TRACED = 1.15
 TARGET_EXACT = 0.7
-DEG = math.pi / 180.0
 
 # (label, model or None for a native Glossy with OSL on, params or the native distribution)
 ROWS = [
@@ -62,21 +60,16 @@ def _median_range(values):
     return statistics.median(values), min(values), max(values)
 
 
-class _Timer:
-    """Renders a scene's animation and splits its CPU time into the frames
-    after the first (rendering) and the first frame's extra (set-up)."""
+def _time(scene, out_dir):
+    """``(CPU seconds of the frames after the first, the first frame's extra)``
+    of rendering ``scene``'s animation: rendering, and the one-time set-up."""
+    from test_scenes import bench as bench_scene
+    from test_scenes import verify
 
-    def __init__(self, out_dir):
-        self.out_dir = out_dir
-
-    def __call__(self, scene):
-        from test_scenes import bench as bench_scene
-        from test_scenes import verify
-
-        with verify.quiet():
-            frames = bench_scene.frame_cpu_seconds(scene, self.out_dir)
-        later = frames[1:]
-        return sum(later), frames[0] - statistics.median(later)
+    with verify.quiet():
+        frames = bench_scene.frame_cpu_seconds(scene, out_dir)
+    later = frames[1:]
+    return sum(later), frames[0] - statistics.median(later)
 
 
 def _materials(api, label, model, params):
@@ -130,13 +123,12 @@ def bench(api, *, resolution=128, samples=16, frames=4, rounds=5, rows=None):
                                  for mode, mat, node in _materials(api, label, model, params)}))
         measured = {label: {mode: ([], []) for mode in scenes} for label, scenes in plan}
         with tempfile.TemporaryDirectory(prefix="rm_bench_") as out_dir:
-            timer = _Timer(out_dir)
-            timer(native)  # warm-up: the session's first render also loads Cycles' kernels
+            _time(native, out_dir)  # warm-up: the session's first render also loads Cycles' kernels
             for r in range(rounds):
                 for label, scenes in plan:
-                    base, _setup = timer(native)
+                    base, _setup = _time(native, out_dir)
                     for mode, sc in scenes.items():
-                        t, setup = timer(sc)
+                        t, setup = _time(sc, out_dir)
                         measured[label][mode][0].append(t / base)
                         measured[label][mode][1].append(setup)
                 print(f"  round {r + 1}/{rounds} done", flush=True)
