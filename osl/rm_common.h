@@ -42,22 +42,25 @@ color rm_clamp(color c, float lo, float hi)
 // see rm_clamp).  Any finite length works: a vector far from unit length is
 // first scaled by exact powers of two (so dot() neither overflows nor
 // underflows, and the result is bit-identical to that of the unit vector).
+// Straight-line code, no loop: OSL's runtime optimiser folds it away for a
+// constant input, and a varying one costs a few comparisons.
+#define RM_2_60 1152921504606846976.0           // 2^60
+#define RM_2_68 295147905179352825856.0         // 2^68
+#define RM_2_80 1208925819614629174706176.0     // 2^80
 vector rm_direction(vector v)
 {
-    for (int i = 0; i < 3; i++)
-        if (isnan(v[i]) || isinf(v[i]))
-            return vector(0.0);
-    vector u = v;
-    float m = max(max(abs(u[0]), abs(u[1])), abs(u[2]));
+    if (isnan(v[0]) || isnan(v[1]) || isnan(v[2]) || isinf(v[0]) || isinf(v[1]) || isinf(v[2]))
+        return vector(0.0);
+    float m = max(max(abs(v[0]), abs(v[1])), abs(v[2]));
     if (m == 0.0)
         return vector(0.0);
-    for (int i = 0; i < 8 && m > 1048576.0; i++) {  // 2^20
-        u *= 1.0 / 1048576.0;
-        m *= 1.0 / 1048576.0;
-    }
-    for (int i = 0; i < 8 && m < 1.0 / 1048576.0; i++) {
-        u *= 1048576.0;
-        m *= 1048576.0;
+    vector u = v;
+    if (m > RM_2_60)               // m < 2^128: now in (2^-8, 2^60)
+        u *= 1.0 / RM_2_68;
+    if (m < 1.0 / RM_2_60) {       // m >= 2^-149 (subnormal): at most two steps
+        u *= RM_2_80;              // to [2^-60, 2^20)
+        if (m * RM_2_80 < 1.0 / RM_2_60)
+            u *= RM_2_80;
     }
     return normalize(u);
 }
@@ -65,10 +68,8 @@ vector rm_direction(vector v)
 // A point input: unset (use the default) when a component is NaN or infinite.
 int rm_finite(point p)
 {
-    for (int i = 0; i < 3; i++)
-        if (isnan(p[i]) || isinf(p[i]))
-            return 0;
-    return 1;
+    return !(isnan(p[0]) || isnan(p[1]) || isnan(p[2]) || isinf(p[0]) || isinf(p[1]) ||
+             isinf(p[2]));
 }
 
 // log(1 + x) accurate for small x in float32 (Goldberg 1991, theorem 4).
