@@ -25,8 +25,9 @@ ORTHO_SCALE = 1.2
 
 
 def build_bench_scene(material, *, resolution=128, samples=16, frames=4, osl=None,
-                      light_dir=LIGHT, name="bench"):
-    """A new scene rendering ``material`` on the sphere; see the module."""
+                      light_dir=LIGHT, name="bench", threads=0):
+    """A new scene rendering ``material`` on the sphere; see the module.
+    ``threads`` 0 uses every CPU thread; a positive number fixes the count."""
     bpy = common.import_bpy()
     scene = common.new_scene(name)
     if osl is None:
@@ -35,6 +36,9 @@ def build_bench_scene(material, *, resolution=128, samples=16, frames=4, osl=Non
     common.set_linear_exr_output(scene, (resolution, resolution))
     common.set_world_background(scene, 0.0)
     scene.render.use_persistent_data = True
+    if threads:
+        scene.render.threads_mode = 'FIXED'
+        scene.render.threads = int(threads)
     scene.frame_start, scene.frame_end = 1, int(frames)
     common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), ORTHO_SCALE)
     common.add_sun(scene, common.normalize(light_dir), 1.0)

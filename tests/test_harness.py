@@ -595,3 +595,53 @@ def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     bench_render.print_table(results, resolution=16, samples=1, frames=2, rounds=1)
     table = capsys.readouterr().out
     assert "native aniso" in table and "ward" in table and "<=1.15" in table and "<=0.7" in table
+
+
+def test_instruction_counts_pair_each_frame_with_its_dump(tmp_path):
+    """``make bench``'s instruction table: callgrind writes dump k at the
+    k-th mark, holding the instructions since the previous one; the count of
+    a material is the dump written after its last frame.  Checked on
+    hand-written dumps (running callgrind takes minutes: ``make bench``)."""
+    import json
+
+    from tools import bench_count
+
+    marks = []
+    for label, mode in (("base", "path_traced"), ("m", "path_traced"), ("m", "exact")):
+        for frame in (1, 2):
+            marks += [[label, mode, frame, "pre"], [label, mode, frame, "post"]]
+    (tmp_path / "marks").write_text("".join(json.dumps(m) + "\n" for m in marks))
+    for k in range(1, len(marks) + 1):  # dump k: summary 1000 * k
+        (tmp_path / f"cg.{k}").write_text(f"version: 1\nevents: Ir\nsummary: {1000 * k}\n")
+    (tmp_path / "cg").write_text("summary: 5\n")  # the dump at exit is not a frame
+    counts = bench_count.frame_counts(tmp_path / "marks", str(tmp_path / "cg"))
+    assert counts == {("base", "path_traced"): 4000, ("m", "path_traced"): 8000,
+                      ("m", "exact"): 12000}
+    (tmp_path / f"cg.{len(marks) + 1}").write_text("summary: 1\n")  # another caller
+    with pytest.raises(RuntimeError, match="marks but"):
+        bench_count.frame_counts(tmp_path / "marks", str(tmp_path / "cg"))
+    with pytest.raises(RuntimeError, match="no dump"):
+        bench_count.frame_counts(tmp_path / "marks", str(tmp_path / "none"))
+
+
+def test_instruction_count_renders_mark_every_frame(bpy, tmp_path):
+    """The process that callgrind watches renders the native baseline, then
+    each material two frames, and marks before and after every frame in that
+    order; it leaves no material or scene behind."""
+    import json
+
+    from addon import api
+    from tools import bench_count
+
+    n_materials, n_scenes = len(bpy.data.materials), len(bpy.data.scenes)
+    marks_path = tmp_path / "marks"
+    bench_count.render_marked(api, [("lambert", "lambert", {})], marks_path,
+                              resolution=8, samples=1)
+    marks = [json.loads(line) for line in marks_path.read_text().splitlines()]
+    expected = []
+    for label, mode in ((bench_count.BASELINE, "path_traced"), ("lambert", "path_traced"),
+                        ("lambert", "exact")):
+        for frame in (1, 2):
+            expected += [[label, mode, frame, "pre"], [label, mode, frame, "post"]]
+    assert marks == expected
+    assert (len(bpy.data.materials), len(bpy.data.scenes)) == (n_materials, n_scenes)

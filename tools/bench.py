@@ -7,6 +7,9 @@ Prints tables; asserts nothing (speed is measured here, never in tests).
   a batch of 10^6 direction pairs, against the targets of the issue.
 * render: Cycles render time of each node mode relative to the native Glossy
   BSDF on the same scene at equal samples (needs bpy; ``--render``).
+* count: the same ratio in instructions executed per frame, counted by
+  valgrind's callgrind, which is repeatable where time is not (``--count``;
+  skipped with a note when valgrind is missing).
 """
 
 from __future__ import annotations
@@ -88,15 +91,19 @@ def bench_reference(n=1_000_000, repeats=3):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reference", action="store_true", help="only the reference table")
-    parser.add_argument("--render", action="store_true", help="only the render table")
+    parser.add_argument("--render", action="store_true", help="only the render-time table")
+    parser.add_argument("--count", action="store_true", help="only the instruction-count table")
     parser.add_argument("-n", type=int, default=1_000_000, help="batch size for the reference")
     args = parser.parse_args(argv)
-    both = not (args.reference or args.render)
-    if args.reference or both:
+    every = not (args.reference or args.render or args.count)
+    if args.reference or every:
         bench_reference(args.n)
-    if args.render or both:
+    if args.render or every:
         from tools import bench_render
         bench_render.main()
+    if args.count or every:
+        from tools import bench_count
+        bench_count.main()
     return 0
 
 
