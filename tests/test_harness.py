@@ -580,21 +580,25 @@ def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     from tools import bench_render
 
     rows = [row for row in bench_render.ROWS if row[1] is None and "anisotropic" in row[2]]
+    rows += [row for row in bench_render.ROWS if row[1] is None and "hair" in row[2]]
     rows += [("ward", "ward", {})]
     n_materials = len(bpy.data.materials)
     results = bench_render.bench(api, resolution=16, samples=1, frames=2, rounds=1, rows=rows)
     assert [r["label"] for r in results] == [label for label, _model, _params in rows]
-    assert set(results[0]) == {"label", "path_traced"}
-    assert set(results[1]) == {"label", "path_traced", "exact"}
+    assert set(results[0]) == set(results[1]) == {"label", "path_traced"}
+    assert set(results[2]) == {"label", "path_traced", "exact"}
     for row in results:
         for mode in ("path_traced", "exact"):
             if mode in row:
                 med, lo, hi = row[mode]["ratio"]
                 assert 0.0 < lo <= med <= hi < float("inf")
-    assert len(bpy.data.materials) == n_materials  # the benchmark cleans up after itself
+    # the benchmark cleans up after itself (the extension's shader texts stay)
+    assert len(bpy.data.materials) == n_materials
+    assert not [t.name for t in bpy.data.texts if t.name.startswith("bench ")]
     bench_render.print_table(results, resolution=16, samples=1, frames=2, rounds=1)
     table = capsys.readouterr().out
-    assert "native aniso" in table and "ward" in table and "<=1.15" in table and "<=0.7" in table
+    assert "native aniso" in table and "hair_reflection alone" in table and "ward" in table
+    assert "<=1.15" in table and "<=0.7" in table
 
 
 def test_instruction_counts_pair_each_frame_with_its_dump(tmp_path):

@@ -103,7 +103,7 @@ def render_marked(api, rows, marks_path, *, resolution=64, samples=8, frames=2):
         for holder in scenes:
             verify.dispose(holder)
         for _label, _mode, mat, _node, _osl in plan:
-            verify.remove_material(mat)
+            bench_render.remove_material(mat)
 
 
 def _summary(path):

@@ -38,11 +38,23 @@ import tempfile
 TARGET_PATH_TRACED = 1.15
 TARGET_EXACT = 0.7
 
-# (label, model or None for a native Glossy with OSL on, params or the native distribution)
+# The closures some models build, alone in a one-line OSL shader (what the
+# model's own code adds is the difference); ``tangent`` is the UV tangent.
+CLOSURE_FLOORS = {
+    "dielectric": 'BSDF = dielectric_bsdf(N, normalize(tangent), color(1.0), color(0.0), '
+                  '0.2, 0.2, 1.5, "beckmann");',
+    "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.3, 0.3, "
+                    "normalize(tangent), 0.0);",
+}
+
+# (label, model or None for a floor row, params; for a floor row, the native
+# Glossy distribution [+ " anisotropic"], or "closure <CLOSURE_FLOORS key>")
 ROWS = [
     ("native Glossy GGX, OSL", None, "GGX"),
     ("native Glossy Beckmann, OSL", None, "BECKMANN"),
     ("native aniso Beckmann+UV tangent, OSL", None, "BECKMANN anisotropic"),
+    ("dielectric_bsdf alone, OSL", None, "closure dielectric"),
+    ("diffuse+hair_reflection alone, OSL", None, "closure diffuse+hair"),
     ("lambert", "lambert", {}),
     ("phong", "phong", {}),
     ("blinn_phong", "blinn_phong", {}),
@@ -72,10 +84,49 @@ def _time(scene, out_dir):
     return sum(later), frames[0] - statistics.median(later)
 
 
+def _closure_material(name, floor):
+    """A material whose surface is one of :data:`CLOSURE_FLOORS`, in a Script
+    node with the UV tangent connected."""
+    from addon import oslutil
+    from test_scenes import common
+
+    bpy = common.import_bpy()
+    mat, tree, out = common.empty_material(name)
+    text = bpy.data.texts.new(name + ".osl")
+    text.write('#include "stdcycles.h"\n'
+               "shader closure_floor(vector tangent = vector(1.0, 0.0, 0.0),\n"
+               "                     output closure color BSDF = 0)\n"
+               "{\n    " + CLOSURE_FLOORS[floor] + "\n}\n")
+    script = tree.nodes.new("ShaderNodeScript")
+    script.mode = 'INTERNAL'
+    script.script = text
+    oslutil.compile_script_node(script)
+    tangent = tree.nodes.new("ShaderNodeTangent")
+    tangent.direction_type = "UV_MAP"
+    tree.links.new(tangent.outputs["Tangent"], script.inputs["tangent"])
+    tree.links.new(script.outputs["BSDF"], out.inputs["Surface"])
+    return mat
+
+
+def remove_material(mat):
+    """Remove a benchmark material, with the shader text of a floor row."""
+    from test_scenes import common, verify
+
+    bpy = common.import_bpy()
+    texts = [node.script for node in mat.node_tree.nodes
+             if node.bl_idname == "ShaderNodeScript" and node.script is not None
+             and node.script.name == mat.name + ".osl"]
+    verify.remove_material(mat)
+    for text in texts:
+        bpy.data.texts.remove(text)
+
+
 def _materials(api, label, model, params):
     """``[(mode, material, node or None)]`` for one row."""
     from test_scenes import verify
 
+    if model is None and params.startswith("closure "):
+        return [("path_traced", _closure_material(f"bench {label}", params.split()[1]), None)]
     if model is None:
         distribution, *aniso = params.split()
         mat = verify.native_glossy_material(f"bench {label}", distribution, 0.5)
@@ -135,7 +186,7 @@ def bench(api, *, resolution=128, samples=16, frames=4, rounds=5, rows=None):
     finally:
         for holder, mat in made:
             verify.dispose(holder)
-            verify.remove_material(mat)
+            remove_material(mat)
     results = []
     for label, per_mode in measured.items():
         row = {"label": label}
