@@ -39,9 +39,10 @@ TARGET_PATH_TRACED = 1.15
 TARGET_EXACT = 0.7
 
 # The closures some models build, alone in a one-line OSL shader (what the
-# model's own code adds is the difference); ``tangent`` is the UV tangent.
+# model's own code adds is the difference); ``tangent`` is the UV tangent,
+# connected only where a shader uses it (an isotropic lobe takes dPdu).
 CLOSURE_FLOORS = {
-    "dielectric": 'BSDF = dielectric_bsdf(N, normalize(tangent), color(1.0), color(0.0), '
+    "dielectric": 'BSDF = dielectric_bsdf(N, normalize(dPdu), color(1.0), color(0.0), '
                   '0.2, 0.2, 1.5, "beckmann");',
     "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.3, 0.3, "
                     "normalize(tangent), 0.0);",
@@ -86,7 +87,7 @@ def _time(scene, out_dir):
 
 def _closure_material(name, floor):
     """A material whose surface is one of :data:`CLOSURE_FLOORS`, in a Script
-    node with the UV tangent connected."""
+    node (its ``tangent`` input linked to the UV tangent if it uses it)."""
     from addon import oslutil
     from test_scenes import common
 
@@ -101,9 +102,10 @@ def _closure_material(name, floor):
     script.mode = 'INTERNAL'
     script.script = text
     oslutil.compile_script_node(script)
-    tangent = tree.nodes.new("ShaderNodeTangent")
-    tangent.direction_type = "UV_MAP"
-    tree.links.new(tangent.outputs["Tangent"], script.inputs["tangent"])
+    if "tangent" in CLOSURE_FLOORS[floor]:  # Cycles looks the UV tangent up once it is linked
+        tangent = tree.nodes.new("ShaderNodeTangent")
+        tangent.direction_type = "UV_MAP"
+        tree.links.new(tangent.outputs["Tangent"], script.inputs["tangent"])
     tree.links.new(script.outputs["BSDF"], out.inputs["Surface"])
     return mat
 
