@@ -38,13 +38,18 @@ import tempfile
 TARGET_PATH_TRACED = 1.15
 TARGET_EXACT = 0.7
 
-# The closures some models build, alone in a one-line OSL shader (what the
-# model's own code adds is the difference); ``tangent`` is the UV tangent,
-# connected only where a shader uses it (an isotropic lobe takes dPdu).
+# The closures some models build, alone in a one-line OSL shader, at the
+# models' default widths (what the model's own code adds is the difference);
+# ``tangent`` is the UV tangent, linked only where a shader uses it (an
+# isotropic lobe takes dPdu).
 CLOSURE_FLOORS = {
+    # Torrance-Sparrow, Cook-Torrance: beta 10 deg is alpha 0.21 in Beckmann
     "dielectric": 'BSDF = dielectric_bsdf(N, normalize(dPdu), color(1.0), color(0.0), '
-                  '0.2, 0.2, 1.5, "beckmann");',
-    "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.3, 0.3, "
+                  '0.21, 0.21, 1.5, "beckmann");',
+    # Ward: alpha_x 0.3, alpha_y 0.08
+    "beckmann-aniso": 'BSDF = microfacet("beckmann", N, normalize(tangent), 0.3, 0.08, 0.0, 0);',
+    # Kajiya-Kay: exponent 40 is hair roughness sqrt(2 / 42)
+    "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.218, 0.218, "
                     "normalize(tangent), 0.0);",
 }
 
@@ -54,6 +59,7 @@ ROWS = [
     ("native Glossy GGX, OSL", None, "GGX"),
     ("native Glossy Beckmann, OSL", None, "BECKMANN"),
     ("native aniso Beckmann+UV tangent, OSL", None, "BECKMANN anisotropic"),
+    ("aniso Beckmann alone+UV tangent, OSL", None, "closure beckmann-aniso"),
     ("dielectric_bsdf alone, OSL", None, "closure dielectric"),
     ("diffuse+hair_reflection alone, OSL", None, "closure diffuse+hair"),
     ("lambert", "lambert", {}),
