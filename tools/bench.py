@@ -101,10 +101,11 @@ def main(argv=None):
     if args.render or every:
         from tools import bench_render
         bench_render.main()
+    status = 0
     if args.count or every:
         from tools import bench_count
-        bench_count.main()
-    return 0
+        status = bench_count.main()
+    return status
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ material (a 16-sample frame counts 593 M), so the ratio is the shading's.
 
 ``os_getppid`` is the C function behind ``os.getppid`` in CPython; callgrind
 finds it in the interpreter's symbol table.  If the interpreter has none
-(stripped), no file is written and the table says so.
+(stripped), callgrind writes no dump: the command says so and exits 1.
 """
 
 from __future__ import annotations
@@ -200,7 +200,7 @@ def print_table(counts, baselines, *, resolution, samples):
                 cells.append(f"{ratio:{width}.3f} {'yes' if ratio <= target else 'NO':>6s}")
         print(f"{label:38.38s} {cells[0]}  {cells[1]}")
     print("A count is not a time (it weighs every instruction alike and counts no cache "
-          "miss), but it repeats to about 1e-5.")
+          "miss), but it repeats: see the spread of the baseline above.")
 
 
 def main(argv=None):
@@ -228,7 +228,7 @@ def main(argv=None):
         print("\n(instruction counts skipped: valgrind is not installed)")
         return 0
     print(f"\nCounting instructions under valgrind in {args.jobs} processes "
-          "(about 5 minutes on 2 cores) ...", flush=True)
+          "(6 to 10 minutes on 2 cores) ...", flush=True)
     from tools import bench_render
 
     rows = None
@@ -238,8 +238,12 @@ def main(argv=None):
         if unknown:
             parser.error(f"unknown rows {unknown}; allowed: {labels}")
         rows = [row for row in bench_render.ROWS if row[0] in args.rows]
-    counts, baselines = count(rows, resolution=args.resolution, samples=args.samples,
-                              jobs=args.jobs)
+    try:
+        counts, baselines = count(rows, resolution=args.resolution, samples=args.samples,
+                                  jobs=args.jobs)
+    except RuntimeError as exc:
+        print(f"instruction counts failed: {exc}")
+        return 1
     print_table(counts, baselines, resolution=args.resolution, samples=args.samples)
     return 0
 
