@@ -162,12 +162,15 @@ def count(rows=None, *, resolution=64, samples=8, jobs=2, valgrind="valgrind"):
                    sys.executable, "-m", "tools.bench_count", "--inner", rows_file,
                    "--marks", prefix + ".marks", "--resolution", str(resolution),
                    "--samples", str(samples)]
-            procs.append((subprocess.Popen(cmd, cwd=ROOT), prefix))
+            with open(prefix + ".err", "w", encoding="utf-8") as err:  # Blender's start-up log
+                procs.append((subprocess.Popen(cmd, cwd=ROOT, stderr=err), prefix))
         counts, baselines = {}, []
         for proc, prefix in procs:
             if proc.wait() != 0:
-                with open(prefix + ".vg", encoding="utf-8", errors="replace") as f:
-                    tail = "".join(f.readlines()[-15:])
+                tail = ""
+                for log in (prefix + ".err", prefix + ".vg"):
+                    with open(log, encoding="utf-8", errors="replace") as f:
+                        tail += "".join(f.readlines()[-10:])
                 raise RuntimeError(f"counting process failed (exit {proc.returncode}):\n{tail}")
             got = frame_counts(prefix + ".marks", prefix + ".cg")
             baselines.append(got[(BASELINE, "path_traced")])
