@@ -252,9 +252,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    status = main(sys.argv[1:])
     from tools import bpy_env
 
-    sys.stdout.flush()
-    bpy_env.cleanup()
-    os._exit(status)
+    bpy_env.exit_process(main(sys.argv[1:]))

@@ -20,11 +20,13 @@ and the ratio printed is the median over rounds with its range: on a shared
 2-core machine the same render's time moves by up to 1.7x from one minute to
 the next, and a ratio of renders made seconds apart cancels most of that.
 
-The first rows are Blender's own Glossy BSDF with the OSL shading system
-on: the cost of OSL itself, which a path-traced OSL material cannot go
-below (the third with an anisotropic lobe on the UV tangent, as Ward and
-Kajiya-Kay need).  Targets: path traced <= 1.15x, exact <= 0.7x.  Measures and
-prints; asserts nothing.
+The first rows are floors, not models: Blender's own Glossy BSDF with the
+OSL shading system on (the cost of OSL itself, which a path-traced OSL
+material cannot go below; the third with an anisotropic lobe on the UV
+tangent), and the closures that Ward, Torrance-Sparrow, Cook-Torrance and
+Kajiya-Kay build, alone in a one-line OSL shader.  Targets: path traced
+<= 1.15x, exact <= 0.7x.  Measures and prints; asserts nothing.  The same
+ratios in instructions, which repeat where time does not: tools/bench_count.py.
 """
 
 from __future__ import annotations
@@ -223,8 +225,8 @@ def print_table(results, *, resolution, samples, frames, rounds):
     for row in results:
         print(f"{row['label']:30.30s} {_cell(row.get('path_traced'), TARGET_PATH_TRACED)}  "
               f"{_cell(row.get('exact'), TARGET_EXACT)}")
-    print("The native rows are the floor of a path-traced OSL material: the same closure "
-          "with nothing around it.")
+    print("The floor rows are what a path-traced OSL material cannot go below: Blender's "
+          "Glossy node under OSL, or the model's closure with nothing around it.")
 
 
 def main(argv=None):
@@ -258,8 +260,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    status = main(sys.argv[1:])
     from tools import bpy_env
-    sys.stdout.flush()
-    bpy_env.cleanup()
-    os._exit(status)
+
+    bpy_env.exit_process(main(sys.argv[1:]))

@@ -160,6 +160,15 @@ def cleanup() -> None:
         _state["owned"] = False
 
 
+def exit_process(status: int) -> None:
+    """End a process that imported bpy: flush, :func:`cleanup`, then
+    ``os._exit`` (bpy 4.5 can hang at interpreter exit)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    cleanup()
+    os._exit(status)
+
+
 def prepared_root() -> Path:
     """The throwaway root folder chosen by :func:`prepare`."""
     if "root" not in _state:
