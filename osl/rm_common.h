@@ -344,8 +344,7 @@ vector rm_normal(normal shading_normal)
 // skips rm_direction's checks (measured: 0.9 % of a path-traced Ward render).
 vector rm_default_direction(vector v)
 {
-    float l2 = dot(v, v);
-    return (l2 > 0.0) ? v / sqrt(l2) : vector(0.0);
+    return (dot(v, v) > 0.0) ? normalize(v) : vector(0.0);
 }
 
 void rm_frame(normal shading_normal, vector tangent, float tangent_rotation,
