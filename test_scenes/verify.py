@@ -116,6 +116,11 @@ def dispose(scene_holder):
     scene = scene_holder.scene
     if scene is None:
         return
+    if scene.render.use_persistent_data:
+        # Switching it off frees the render's persistent data (Blender's RNA
+        # update), which otherwise outlives the scene: Blender 4.5 crashed in
+        # the next material created after such a scene was removed.
+        scene.render.use_persistent_data = False
     objs = list(scene.collection.all_objects)
     datas = [o.data for o in objs]
     for o in objs:
