@@ -57,7 +57,7 @@ def render_marked(api, rows, marks_path, *, resolution=64, samples=8, frames=2):
     import bpy
 
     from test_scenes import bench as bench_scene
-    from test_scenes import common, verify
+    from test_scenes import verify
     from tools import bench_render
 
     current = {}
@@ -75,18 +75,16 @@ def render_marked(api, rows, marks_path, *, resolution=64, samples=8, frames=2):
         mark(scene, *args, when="post")
 
     plan = [(BASELINE, "path_traced", verify.native_glossy_material("count native", "GGX", 0.5),
-             None, False)]
+             False)]
     for label, model, params in rows:
-        for mode, mat, node in bench_render._materials(api, label, model, params):
-            plan.append((label, mode, mat, node, True))
+        for mode, mat, _node in bench_render._materials(api, label, model, params):
+            plan.append((label, mode, mat, True))
     scenes = []
     bpy.app.handlers.render_pre.append(pre)
     bpy.app.handlers.render_post.append(post)
     try:
         with tempfile.TemporaryDirectory(prefix="rm_count_") as out_dir:
-            for i, (label, mode, mat, node, osl) in enumerate(plan):
-                if mode == "exact":
-                    verify.set_sun(node, common.normalize(bench_scene.LIGHT), 1.0)
+            for i, (label, mode, mat, osl) in enumerate(plan):
                 scene = bench_scene.build_bench_scene(
                     mat, resolution=resolution, samples=samples, frames=frames, osl=osl,
                     name=f"count{i}", threads=1)
@@ -102,7 +100,7 @@ def render_marked(api, rows, marks_path, *, resolution=64, samples=8, frames=2):
         log.close()
         for holder in scenes:
             verify.dispose(holder)
-        for _label, _mode, mat, _node, _osl in plan:
+        for _label, _mode, mat, _osl in plan:
             bench_render.remove_material(mat)
 
 
@@ -141,8 +139,9 @@ def frame_counts(marks_path, dump_prefix):
 
 def count(rows=None, *, resolution=64, samples=8, jobs=2, valgrind="valgrind"):
     """``{(label, mode): instructions of one frame}`` for the baseline and every
-    material of ``rows`` (default ``bench_render.ROWS``), and the baseline
-    counted in each process (they must agree).  Runs ``jobs`` processes."""
+    material of ``rows`` (default ``bench_render.ROWS``), and the baseline as
+    counted in each process (the table prints their spread).  Runs ``jobs``
+    processes."""
     from tools import bench_render
 
     rows = bench_render.ROWS if rows is None else rows

@@ -132,8 +132,10 @@ def remove_material(mat):
 
 
 def _materials(api, label, model, params):
-    """``[(mode, material, node or None)]`` for one row."""
-    from test_scenes import verify
+    """``[(mode, material, node or None)]`` for one row; an exact-mode node's
+    light is the bench scene's sun."""
+    from test_scenes import bench as bench_scene
+    from test_scenes import common, verify
 
     if model is None and params.startswith("closure "):
         return [("path_traced", _closure_material(f"bench {label}", params.split()[1]), None)]
@@ -151,7 +153,10 @@ def _materials(api, label, model, params):
     out = []
     for mode in MODES:
         mat = verify.new_material(f"bench {label} {mode}")
-        out.append((mode, mat, api.add_model(mat, model, mode=mode, **params)))
+        node = api.add_model(mat, model, mode=mode, **params)
+        if mode == "exact":
+            verify.set_sun(node, common.normalize(bench_scene.LIGHT), 1.0)
+        out.append((mode, mat, node))
     return out
 
 
@@ -161,16 +166,14 @@ def bench(api, *, resolution=128, samples=16, frames=4, rounds=5, rows=None):
     from types import SimpleNamespace
 
     from test_scenes import bench as bench_scene
-    from test_scenes import common, verify
+    from test_scenes import verify
 
     if frames < 2:
         raise ValueError("frames must be at least 2 (the first one compiles)")
     rows = ROWS if rows is None else rows
     made = []  # (holder of the scene, material) to dispose of
 
-    def scene(mat, *, osl, node=None, mode=None):
-        if mode == "exact":
-            verify.set_sun(node, common.normalize(bench_scene.LIGHT), 1.0)
+    def scene(mat, *, osl):
         sc = bench_scene.build_bench_scene(mat, resolution=resolution, samples=samples,
                                            frames=frames, osl=osl, name=f"bench{len(made)}")
         made.append((SimpleNamespace(scene=sc), mat))
@@ -180,8 +183,8 @@ def bench(api, *, resolution=128, samples=16, frames=4, rounds=5, rows=None):
         native = scene(verify.native_glossy_material("bench native", "GGX", 0.5), osl=False)
         plan = []
         for label, model, params in rows:
-            plan.append((label, {mode: scene(mat, osl=True, node=node, mode=mode)
-                                 for mode, mat, node in _materials(api, label, model, params)}))
+            plan.append((label, {mode: scene(mat, osl=True)
+                                 for mode, mat, _node in _materials(api, label, model, params)}))
         measured = {label: {mode: ([], []) for mode in scenes} for label, scenes in plan}
         with tempfile.TemporaryDirectory(prefix="rm_bench_") as out_dir:
             _time(native, out_dir)  # warm-up: the session's first render also loads Cycles' kernels
