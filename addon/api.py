@@ -41,7 +41,9 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from . import catalogue, nodes, reference
+from . import groups
+from .core import catalogue
+from .core.validation import validate
 
 MODES = {"path_traced": "BSDF", "exact": "Direct"}
 METALS = catalogue.METALS
@@ -77,20 +79,20 @@ def _split(model_name: str, params: dict, width_mode: str | None = None):
     them into ``(base model, enum values, checked values, names given)``.
     The width mode follows the width given, else ``width_mode`` (the node's
     current one), else the default (beta)."""
-    model, values, given = reference._check(model_name, params)
+    model, values, given = validate(model_name, params)
     enums = {p.name: values[p.name] for p in model.params if p.is_enum}
     if "width" in model.rules:
-        gave_width = any(n in given for names in nodes.WIDTH_SOCKETS.values() for n in names)
+        gave_width = any(n in given for names in groups.WIDTH_SOCKETS.values() for n in names)
         if gave_width or width_mode is None:
-            width_mode = nodes.WIDTH_FROM_REFERENCE[values["_width"]]
-        enums[nodes.WIDTH_PARAM.name] = width_mode
+            width_mode = groups.WIDTH_FROM_REFERENCE[values["_width"]]
+        enums[groups.WIDTH_PARAM.name] = width_mode
     return model, enums, values, given
 
 
 def _socket_values(model, enums, values, names) -> dict:
     """Blender values of the parameters ``names`` that have a socket in the
     variant ``enums`` (a width of another width mode has none)."""
-    have = {p.name for p in nodes.socket_params(model.id, enums)}
+    have = {p.name for p in groups.socket_params(model.id, enums)}
     out = {}
     for name in names:
         if name in have:
@@ -102,11 +104,11 @@ def _socket_values(model, enums, values, names) -> dict:
 
 def _set_sockets(node, socket_values: dict) -> None:
     for name, value in socket_values.items():
-        nodes.input_socket(node, name).default_value = value
+        groups.input_socket(node, name).default_value = value
 
 
 def _rm_node_info(node):
-    info = nodes.rm_info(getattr(node, "node_tree", None))
+    info = groups.rm_info(getattr(node, "node_tree", None))
     if info is None:
         raise ValueError(f"{getattr(node, 'name', node)!r} is not a Reflection Models node")
     return info
@@ -136,7 +138,7 @@ def add_model(material, model: str, mode: str = "path_traced", **params):
     base, enums, values, _given = _split(model, params)
     socket_values = _socket_values(base, enums, values,
                                    [p.name for p in base.params if not p.is_enum])
-    tree = nodes.ensure_group(base.id, **enums)
+    tree = groups.ensure_group(base.id, **enums)
 
     if material.node_tree is None:
         material.use_nodes = True  # Blender < 5.0; from 5.0 every material has a tree
@@ -148,7 +150,7 @@ def add_model(material, model: str, mode: str = "path_traced", **params):
         node.label = catalogue.PRESETS[model].label
     node.location = (output.location.x - 300.0, output.location.y)
     _set_sockets(node, socket_values)
-    ntree.links.new(nodes.output_socket(node, MODES[mode]), output.inputs["Surface"])
+    ntree.links.new(groups.output_socket(node, MODES[mode]), output.inputs["Surface"])
     if mode == "exact":
         material.cycles.emission_sampling = 'NONE'
     for other in ntree.nodes:
@@ -163,13 +165,13 @@ def set_params(node, **params):
     node to another group variant, keeping its links and other values.
     Returns the node."""
     model_id, variant = _rm_node_info(node)
-    current = {k: v for k, v in variant.items() if k != nodes.WIDTH_PARAM.name}
+    current = {k: v for k, v in variant.items() if k != groups.WIDTH_PARAM.name}
     base, enums, values, _given = _split(model_id, {**current, **params},
-                                        variant.get(nodes.WIDTH_PARAM.name))
+                                        variant.get(groups.WIDTH_PARAM.name))
     socket_values = _socket_values(base, enums, values,
                                    [n for n in params if not base.param(n).is_enum])
     if enums != variant:
-        nodes.switch_variant(node, **enums)
+        groups.switch_variant(node, **enums)
     _set_sockets(node, socket_values)
     return node
 
@@ -203,7 +205,7 @@ def _material_output(ntree):
 def ensure_groups() -> dict:
     """Build (or reuse) the default variant of every model; returns
     ``{model id: node group}``."""
-    return {model_id: nodes.ensure_group(model_id) for model_id in catalogue.MODELS}
+    return {model_id: groups.ensure_group(model_id) for model_id in catalogue.MODELS}
 
 
 # ---------------------------------------------------------------------------
@@ -309,7 +311,7 @@ def unbind_light(node) -> None:
     """Remove the drivers :func:`bind_light` put on the Light inputs."""
     _rm_node_info(node)
     for name in LIGHT_SOCKETS:
-        socket = nodes.input_socket(node, name)
+        socket = groups.input_socket(node, name)
         size = len(socket.default_value) if hasattr(socket.default_value, "__len__") else 0
         if size:
             for i in range(size):
@@ -346,22 +348,22 @@ def bind_light(node, light_object) -> None:
                          + ", ".join(SUPPORTED_LIGHTS))
     unbind_light(node)
     sun = light.type == 'SUN'
-    nodes.input_socket(node, "point_light").default_value = 0.0 if sun else 1.0
+    groups.input_socket(node, "point_light").default_value = 0.0 if sun else 1.0
     if sun:
-        socket = nodes.input_socket(node, "light_direction")
+        socket = groups.input_socket(node, "light_direction")
         rot = {v: _transform(light_object, f"ROT_{v[1].upper()}") for v in ("rx", "ry", "rz")}
         for i, expr in enumerate(SUN_DIRECTION):
             _drive(socket, i, expr, rot)
     else:
-        socket = nodes.input_socket(node, "light_position")
+        socket = groups.input_socket(node, "light_position")
         for i, axis in enumerate("xyz"):
             _drive(socket, i, axis, {axis: _transform(light_object, f"LOC_{axis.upper()}")})
     strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure")}
     if not sun:
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
-    _drive(nodes.input_socket(node, "light_strength"), -1,
+    _drive(groups.input_socket(node, "light_strength"), -1,
            SUN_STRENGTH if sun else POINT_STRENGTH, strength)
-    color = nodes.input_socket(node, "light_color")
+    color = groups.input_socket(node, "light_color")
     for i in range(3):
         _drive(color, i, LIGHT_COLOR,
                {"c": _prop(light, f"color[{i}]"), "t": _prop(light, f"temperature_color[{i}]"),
@@ -384,6 +386,6 @@ def light_drivers(node) -> list:
         return []
     paths = set()
     for name in LIGHT_SOCKETS:
-        paths.add(nodes.input_socket(node, name).path_from_id("default_value"))
+        paths.add(groups.input_socket(node, name).path_from_id("default_value"))
     return [fc for fc in anim.drivers if fc.data_path in paths]
 

@@ -15,7 +15,8 @@ import bpy
 from bpy.app.handlers import persistent
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import api, catalogue, nodes
+from . import api, groups
+from .core import catalogue
 
 log = logging.getLogger(__name__)
 
@@ -31,7 +32,7 @@ def _in_shader_editor(context) -> bool:
 
 def _active_rm_node(context):
     node = getattr(context, "active_node", None)
-    return node if nodes.is_rm_node(node) else None
+    return node if groups.is_rm_node(node) else None
 
 
 # ---------------------------------------------------------------------------
@@ -60,7 +61,7 @@ class NODE_OT_rm_add_model(bpy.types.Operator):
         if name in catalogue.MODELS:
             text = catalogue.MODELS[name].description
             if properties.distribution:
-                text += f" (distribution: {nodes.choice_label(properties.distribution)})"
+                text += f" (distribution: {groups.choice_label(properties.distribution)})"
             return text
         return cls.bl_description
 
@@ -75,7 +76,7 @@ class NODE_OT_rm_add_model(bpy.types.Operator):
         tree = space.edit_tree
         enums = {"distribution": self.distribution} if self.distribution else {}
         try:
-            group = nodes.ensure_group(self.model, **enums)
+            group = groups.ensure_group(self.model, **enums)
         except (ValueError, RuntimeError, OSError) as exc:
             self.report({'ERROR'}, str(exc))
             return {'CANCELLED'}
@@ -131,7 +132,7 @@ class NODE_OT_rm_switch_variant(bpy.types.Operator):
     def execute(self, context):
         node = _active_rm_node(context)
         try:
-            _tree, reset = nodes.switch_variant(node, **{self.param: self.value})
+            _tree, reset = groups.switch_variant(node, **{self.param: self.value})
         except (ValueError, RuntimeError, OSError) as exc:
             self.report({'ERROR'}, str(exc))
             return {'CANCELLED'}
@@ -228,7 +229,7 @@ class NODE_OT_rm_apply_metal(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         node = _active_rm_node(context)
-        return node is not None and nodes.rm_info(node.node_tree)[0] == "microfacet"
+        return node is not None and groups.rm_info(node.node_tree)[0] == "microfacet"
 
     def execute(self, context):
         api.apply_metal(_active_rm_node(context), self.metal)
@@ -244,13 +245,13 @@ class NODE_OT_rm_upgrade_groups(bpy.types.Operator):
 
     @classmethod
     def poll(cls, _context):
-        return bool(nodes.find_outdated_groups())
+        return bool(groups.find_outdated_groups())
 
     def execute(self, _context):
-        groups = nodes.find_outdated_groups()
+        groups = groups.find_outdated_groups()
         for tree in groups:
             try:
-                nodes.upgrade_group(tree)
+                groups.upgrade_group(tree)
             except (ValueError, RuntimeError, OSError) as exc:
                 self.report({'ERROR'}, f"{tree.name}: {exc}")
                 return {'CANCELLED'}
@@ -287,7 +288,7 @@ class NODE_MT_rm_add_microfacet(bpy.types.Menu):
         layout = self.layout
         param = catalogue.MODELS["microfacet"].param("distribution")
         for choice in param.choices:
-            _add_operator(layout, "microfacet", nodes.choice_label(choice), distribution=choice)
+            _add_operator(layout, "microfacet", groups.choice_label(choice), distribution=choice)
 
 
 def _add_operator(layout, model_id, text, **props):
@@ -316,11 +317,11 @@ def _make_variant_menu(param_name: str):
         node = _active_rm_node(context)
         if node is None:
             return
-        model_id, variant = nodes.rm_info(node.node_tree)
-        param = next((p for p in nodes.variant_params(model_id) if p.name == param_name), None)
+        model_id, variant = groups.rm_info(node.node_tree)
+        param = next((p for p in groups.variant_params(model_id) if p.name == param_name), None)
         for choice in (param.choices if param else ()):
             op = self.layout.operator(NODE_OT_rm_switch_variant.bl_idname,
-                                      text=nodes.choice_label(choice),
+                                      text=groups.choice_label(choice),
                                       icon='CHECKMARK' if variant.get(param_name) == choice
                                       else 'BLANK1')
             op.param = param_name
@@ -336,7 +337,7 @@ def _make_variant_menu(param_name: str):
 def _variant_param_names() -> list:
     names = []
     for model_id in catalogue.MODELS:
-        for p in nodes.variant_params(model_id):
+        for p in groups.variant_params(model_id):
             if p.name not in names:
                 names.append(p.name)
     return names
@@ -356,7 +357,7 @@ class NODE_PT_rm_sidebar(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         _draw_osl(layout, context.scene)
-        outdated = nodes.find_outdated_groups()
+        outdated = groups.find_outdated_groups()
         if outdated:
             box = layout.box()
             box.label(text=f"{len(outdated)} group(s) from an older version", icon='INFO')
@@ -384,15 +385,15 @@ def _draw_osl(layout, scene):
 
 
 def _draw_node(layout, context, node):
-    model_id, variant = nodes.rm_info(node.node_tree)
+    model_id, variant = groups.rm_info(node.node_tree)
     model = catalogue.MODELS[model_id]
     box = layout.box()
     box.label(text=model.label, icon='NODE_MATERIAL')
-    for p in nodes.variant_params(model_id):
+    for p in groups.variant_params(model_id):
         row = box.row()
         split = row.split(factor=0.4)
         split.label(text=p.label)
-        split.menu(_variant_menu_id(p.name), text=nodes.choice_label(variant[p.name]))
+        split.menu(_variant_menu_id(p.name), text=groups.choice_label(variant[p.name]))
     if model_id == "microfacet":
         box.operator_menu_enum(NODE_OT_rm_apply_metal.bl_idname, "metal", text="Metal Preset",
                                icon='MATERIAL')
@@ -415,7 +416,7 @@ def _draw_node(layout, context, node):
 
 def check_scene(scene) -> str | None:
     """The warning for ``scene`` if it uses RM groups it cannot render, else None."""
-    if not nodes.scene_uses_rm_groups(scene):
+    if not groups.scene_uses_rm_groups(scene):
         return None
     problems, _warnings = api.osl_status(scene)
     if not problems:

@@ -2,12 +2,12 @@
 """Session set-up shared by every test.
 
 - The repository root goes on ``sys.path`` (``import addon.reference``,
-  ``import tools.bpy_env``).
+  ``import verification.harness.session``).
 - Blender's bundled site-packages go first on ``sys.path`` now, without
   importing bpy, so that any OpenImageIO a test imports is the copy Cycles'
   ``oslquery`` needs.
 - Tests that need Blender take the session fixture ``bpy`` (never
-  ``import bpy`` at module level): it calls :func:`tools.bpy_env.prepare`,
+  ``import bpy`` at module level): it calls :func:`verification.harness.session.prepare`,
   which isolates the user folders first.  Pure numpy tests never load bpy.
 - bpy 4.5 can hang at interpreter exit, so once bpy was imported the session
   ends with ``os._exit`` and the exit status pytest computed.
@@ -23,7 +23,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
-from tools import bpy_env  # noqa: E402  (needs the path above)
+from verification.harness import session as bpy_env  # noqa: E402  (needs the path above)
 
 try:
     bpy_env.use_bundled_site_packages()
@@ -42,7 +42,7 @@ def bpy():
 @pytest.fixture(scope="session")
 def extension_zip():
     """The extension zip, built once per session with Blender's own tool."""
-    from tools.build_zip import build_zip
+    from verification.harness.package import build_zip
     return build_zip()
 
 

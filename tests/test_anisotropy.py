@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Anisotropic reflection and hair, rendered (test_scenes/anisotropy.py).
+"""Anisotropic reflection and hair, rendered (verification/suites/anisotropy.py).
 
 Exact mode (the shader's Direct output under the light given by its inputs)
 is compared pixel by pixel with ``addon.reference`` on geometry computed in
@@ -10,12 +10,12 @@ Small images: the whole module takes ~15 s on 2 cores.
 """
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from test_scenes import anisotropy as A
+from verification.scenes import anisotropy as scenes
+from verification.suites import anisotropy as A
 
 # Exact mode: float32 OSL vs float64 numpy, with the camera ray's measured
 # place in the pixel; measured <= 5e-5 (Ward, TR), <= 4e-6 (Kajiya-Kay).
@@ -30,7 +30,7 @@ def _show(label, numbers):
 def test_pixel_offsets_are_within_the_filter(bpy):
     # The 0.01 px box filter keeps the one camera ray within 0.005 px of the
     # centre (2e-5 px: the float32 position it is read from).
-    ox, oy = A.pixel_offsets((96, 48))
+    ox, oy = scenes.pixel_offsets((96, 48))
     print(f"\nray offset from the pixel centre: right {ox.mean():.3g} +- {ox.std():.1g} px, "
           f"up {oy.mean():.3g} +- {oy.std():.1g} px")
     assert np.max(np.abs(ox)) <= 0.005 + 2e-5 and np.max(np.abs(oy)) <= 0.005 + 2e-5
@@ -130,10 +130,10 @@ def test_hair_curves_kajiya_kay(bpy):
     assert r["highlight_T_dot_H"] == r["min_T_dot_H_over_strands"]
 
 
-def test_hair_demo_highlight_band(bpy, tmp_path):
-    paths, nums = A.hair_demo(str(tmp_path))
+def test_hair_demo_highlight_band(bpy):
+    images, nums = A.hair_demo()
     _show("hair demo", nums)
-    assert all(Path(p).is_file() for p in paths.values())
+    assert set(images) == {"black", "brown"} and all(i.max() > 0 for i in images.values())
     # the band sits where the strands cross the mirror cone; 3 pixels for
     # the waves (they tilt T) and the strands' shadows (measured: 0.6 px)
     assert abs(nums["band_y"] - nums["band_y_expected"]) <= 3 * nums["pixel"]

@@ -5,8 +5,7 @@ gonioreflectometer, validation, set_params, enable_osl, and bind_light
 against Cycles' own lamps, and kept across save and reload in a fresh
 process).
 
-Parametrised over the catalogue; a model whose shader is not in ``osl/``
-yet is skipped.  Measured numbers are printed (``pytest -s``).
+Parametrised over the catalogue.  Measured numbers are printed (``pytest -s``).
 """
 
 import math
@@ -16,17 +15,13 @@ import numpy as np
 import pytest
 
 from addon import catalogue
-from test_scenes import common, gonio
-from tools import bpy_env
+from verification import harness as common
+from verification.scenes import gonio
+from verification.harness import session as bpy_env
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 LIGHT = gonio.normalize((0.3, 0.2, 0.93))
 RES = 32
-
-
-def needs_shader(name):
-    model, _fixed, _defaults = catalogue.resolve(name)
-    assert (REPO_ROOT / "osl" / model.shader).is_file(), f"osl/{model.shader} is missing"
 
 
 @pytest.fixture
@@ -62,7 +57,6 @@ def euler_toward(direction):
 @pytest.mark.parametrize("mode", ["path_traced", "exact"])
 @pytest.mark.parametrize("name", catalogue.names())
 def test_every_model_renders_finite_non_black_pixels(api, bpy, name, mode):
-    needs_shader(name)
     mat = new_material(bpy)
     node = api.add_model(mat, name, mode=mode)
     g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=RES)
@@ -94,7 +88,6 @@ EXACT_CASES = [
 def test_exact_mode_renders_the_reference_for_the_parameters_given(api, bpy, name, params):
     """End to end: the API's values (radians, RGB, enums, widths) reach the
     shader; the Direct output under a bound sun equals addon.reference."""
-    needs_shader(name)
     mat = new_material(bpy)
     node = api.add_model(mat, name, mode="exact", **params)
     g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=48)
@@ -105,7 +98,6 @@ def test_exact_mode_renders_the_reference_for_the_parameters_given(api, bpy, nam
 
 
 def test_add_model_wires_the_chosen_output_and_leaves_the_scene_alone(api, bpy):
-    needs_shader("phong")
     scene = bpy.context.scene
     scene.render.engine = "BLENDER_EEVEE_NEXT" if bpy.app.version < (5, 0) else "BLENDER_EEVEE"
     before = (scene.render.engine, scene.cycles.shading_system, scene.cycles.device)
@@ -131,7 +123,6 @@ def test_add_model_wires_the_chosen_output_and_leaves_the_scene_alone(api, bpy):
 
 
 def test_width_and_presets_choose_the_variant(api, bpy):
-    needs_shader("microfacet")
     mat = new_material(bpy)
     node = api.add_model(mat, "microfacet", distribution="trowbridge_reitz", alpha=0.3)
     assert node.node_tree.name == "RM Microfacet (GGX, Smith, None, Alpha)"
@@ -170,7 +161,6 @@ def test_add_model_rejects_bad_arguments(api, bpy, model, kwargs, match):
 
 
 def test_set_params_changes_values_and_variant(api, bpy):
-    needs_shader("microfacet")
     mat = new_material(bpy)
     node = api.add_model(mat, "microfacet", distribution="trowbridge_reitz", alpha=0.3)
     api.set_params(node, ks=0.5)
@@ -187,11 +177,9 @@ def test_set_params_changes_values_and_variant(api, bpy):
 
 
 def test_ensure_groups_builds_every_default_variant_once(api, bpy):
-    for model_id in catalogue.MODELS:
-        needs_shader(model_id)
     groups = api.ensure_groups()
     assert sorted(groups) == sorted(catalogue.MODELS)
-    from addon import nodes
+    from addon import groups as nodes
     for model_id, tree in groups.items():
         assert tree.name == nodes.group_name(model_id)
     n_groups = len(bpy.data.node_groups)
@@ -215,7 +203,6 @@ def test_enable_osl_and_osl_status(api, bpy):
 # bind_light
 
 def test_bound_sun_drivers_are_simple_and_follow_the_rotation(api, bpy):
-    needs_shader("phong")
     mat = new_material(bpy)
     params = {"exponent": 30.0}
     node = api.add_model(mat, "phong", mode="exact", **params)
@@ -252,7 +239,6 @@ def test_bound_sun_drivers_are_simple_and_follow_the_rotation(api, bpy):
 def test_bound_point_light_matches_cycles_point_lamp(api, bpy, normalize):
     """Lambert in exact mode vs a Diffuse BSDF lit by the same point lamp:
     Cycles' point lamp of power P has intensity P/(4 pi) W/sr (normalize on)."""
-    needs_shader("lambert")
     images = {}
     for kind in ("diffuse", "exact"):
         mat = new_material(bpy, kind)
@@ -288,7 +274,6 @@ def test_bound_point_light_matches_cycles_point_lamp(api, bpy, normalize):
 
 
 def test_bind_light_rejects_other_lamps_and_nodes(api, bpy):
-    needs_shader("lambert")
     mat = new_material(bpy)
     node = api.add_model(mat, "lambert", mode="exact")
     for kind in ("SPOT", "AREA"):
@@ -308,7 +293,6 @@ def test_bound_light_survives_save_and_reload_in_a_fresh_process(api, bpy, tmp_p
     """The drivers are evaluated in a process with no extension and no Python
     auto-run: the sun's rotation is animated, the file is saved at frame 1
     and rendered at frame 10, where only the drivers know the direction."""
-    needs_shader("phong")
     mat = new_material(bpy)
     params = {"exponent": 25.0}
     node = api.add_model(mat, "phong", mode="exact", **params)
@@ -341,7 +325,7 @@ def test_bound_light_survives_save_and_reload_in_a_fresh_process(api, bpy, tmp_p
 def test_apply_metal_makes_a_conductor_with_the_measured_index(api, bpy):
     """The metal preset switches the variant to the conductor Fresnel, sets
     n and k, and the exact render equals the reference for that metal."""
-    from addon import nodes
+    from addon import groups as nodes
     mat = new_material(bpy)
     node = api.add_model(mat, "microfacet", mode="exact", distribution="trowbridge_reitz",
                          alpha=0.3)

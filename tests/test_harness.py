@@ -5,7 +5,7 @@
 - Native Cycles closures on the gonio scene: Diffuse = Lambert, Glossy GGX =
   GGX with height-correlated Smith and alpha = roughness^2; the per-pixel
   normal, UV tangent and incoming direction match the geometry arrays.
-- The OSL path: internal Script nodes compiled by ``addon.oslutil`` render
+- The OSL path: internal Script nodes compiled by ``addon.backends.osl.compile`` render
   what they compute; the closure facts of docs/cycles-closures.md.
 - The white furnace gives back the albedo of a Diffuse BSDF.
 
@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_scenes import common, furnace, gonio
+from verification import harness as common
+from verification.scenes import furnace, gonio
 
 LIGHT = gonio.normalize((0.5, -0.3, 0.8))
 LOW_LIGHT = gonio.normalize((1.0, 0.3, 0.25))  # grazing: tiles shadow each other
@@ -98,8 +99,8 @@ def uv_tangent_node(tree):
 
 def osl_material(bpy, tmp_path, name, source, tangent=False, **inputs):
     """A material whose surface is the OSL shader ``source`` (output ``Out``),
-    written to ``tmp_path`` and compiled by addon.oslutil."""
-    from addon import oslutil
+    written to ``tmp_path`` and compiled by addon.backends.osl.compile."""
+    from addon.backends.osl import compile as oslutil
 
     (tmp_path / f"{name}.osl").write_text(textwrap.dedent(source))
     mat, tree, out = new_material(bpy, name)
@@ -310,7 +311,7 @@ def test_osl_globals_conventions(bpy, tmp_path):
 
 
 def test_make_script_node_reports_compiler_errors(bpy, tmp_path):
-    from addon import oslutil
+    from addon.backends.osl import compile as oslutil
 
     (tmp_path / "t_broken.osl").write_text(
         '#include "stdcycles.h"\nshader t_broken(output closure color Out = 0)\n'
@@ -321,7 +322,7 @@ def test_make_script_node_reports_compiler_errors(bpy, tmp_path):
 
 
 def test_inline_includes_once_and_recursively(tmp_path):
-    from addon import oslutil
+    from addon.backends.osl import compile as oslutil
 
     (tmp_path / "rm_a.h").write_text('#include "rm_b.h"\nfloat a() { return b(); }\n')
     (tmp_path / "rm_b.h").write_text("float b() { return 1.0; }\n")
@@ -335,11 +336,12 @@ def test_inline_includes_once_and_recursively(tmp_path):
         oslutil.inline_includes('#include "rm_missing.h"\n', tmp_path)
 
 
-def test_osl_dir_is_the_repository_osl_folder():
-    from addon import oslutil
+def test_osl_dir_is_the_backend_shader_folder():
+    from addon.backends.osl import compile as oslutil
 
-    assert oslutil.osl_dir().name == "osl"
-    assert oslutil.osl_dir().parent == Path(__file__).resolve().parent.parent
+    assert oslutil.osl_dir() == (Path(__file__).resolve().parent.parent / "addon" / "backends"
+                                 / "osl" / "shaders")
+    assert (oslutil.osl_dir() / "rm_library.h").is_file()
 
 
 # --------------------------------------------------------------------------
@@ -577,7 +579,7 @@ def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     native floor, a model in both modes) renders and is reported.  Speed is
     printed by ``make bench``, never asserted in a test."""
     from addon import api
-    from tools import bench_render
+    from verification.bench import render as bench_render
 
     rows = [row for row in bench_render.ROWS if row[1] is None and "anisotropic" in row[2]]
     rows += [row for row in bench_render.ROWS if row[1] is None and "hair" in row[2]]
@@ -608,7 +610,7 @@ def test_instruction_counts_pair_each_frame_with_its_dump(tmp_path):
     hand-written dumps (running callgrind takes minutes: ``make bench``)."""
     import json
 
-    from tools import bench_count
+    from verification.bench import count as bench_count
 
     marks = []
     for label, mode in (("base", "path_traced"), ("m", "path_traced"), ("m", "exact")):
@@ -635,7 +637,7 @@ def test_instruction_count_renders_mark_every_frame(bpy, tmp_path):
     import json
 
     from addon import api
-    from tools import bench_count
+    from verification.bench import count as bench_count
 
     n_materials, n_scenes = len(bpy.data.materials), len(bpy.data.scenes)
     marks_path = tmp_path / "marks"

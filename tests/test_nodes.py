@@ -1,10 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Node groups built from the catalogue (``addon.nodes``) and the Shader
+"""Node groups built from the catalogue (``addon.groups``) and the Shader
 Editor interface of the installed extension (``ui``): sockets, variants,
 upgrade, the Add menu, the sidebar panel, handlers and unregistration.
-
-Parametrised over ``catalogue.MODELS``: a model whose shader is not in
-``osl/`` yet is skipped, so new shaders are picked up automatically.
+Parametrised over ``catalogue.MODELS``.
 """
 
 import importlib
@@ -17,23 +15,15 @@ from types import SimpleNamespace
 import pytest
 
 from addon import catalogue
-from tools import bpy_env
+from verification.harness import session as bpy_env
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
-OSL_DIR = REPO_ROOT / "osl"
 F32 = dict(rel=1e-6, abs=1e-7)  # interface values are stored as float32
-
-
-def needs_shader(model_id):
-    model, _fixed, _defaults = catalogue.resolve(model_id)
-    if not (OSL_DIR / model.shader).is_file():
-        pytest.skip(f"osl/{model.shader} is not written yet")
 
 
 @pytest.fixture
 def nodes(bpy):
     bpy_env.reset_scene()
-    from addon import nodes as module
+    from addon import groups as module
     return module
 
 
@@ -133,16 +123,17 @@ def test_output_labels(nodes):
         assert nodes.output_label(name) == name
 
 
-def test_enum_codes_match_the_generated_osl_header(nodes):
-    """The ints set on the Script nodes are the codes the shaders compare with."""
-    header = (OSL_DIR / "rm_generated.h").read_text()
-    codes = dict(re.findall(r"#define (RM_[A-Z0-9_]+) (-?\d+)\s*$", header, re.M))
+def test_enum_codes_match_the_generated_shaders(nodes):
+    """The ints set on the Script nodes are the codes the shaders compare with:
+    each choice's code appears in the generated shader's if chain, and the
+    shader's default is the catalogue default's code."""
+    from addon.backends.osl import generate
     for model_id in catalogue.MODELS:
+        src = (generate.SHADERS / f"{generate.shader_name(model_id)}.osl").read_text()
         for p in nodes.variant_params(model_id):
-            prefix = "RM_WIDTH" if p is nodes.WIDTH_PARAM else f"RM_{p.name.upper()}"
-            for i, choice in enumerate(p.choices):
-                key = f"{prefix}_{choice.upper()}"
-                assert int(codes[key]) == i, key
+            codes = generate.enum_codes(model_id)[p.name]
+            assert codes == {c: i for i, c in enumerate(p.choices)}
+            assert f"int {p.name} = {codes[p.default]}" in src
 
 
 # ---------------------------------------------------------------------------
@@ -150,7 +141,6 @@ def test_enum_codes_match_the_generated_osl_header(nodes):
 
 @pytest.mark.parametrize("model_id", list(catalogue.MODELS))
 def test_every_default_group_matches_the_catalogue(nodes, model_id):
-    needs_shader(model_id)
     tree = nodes.ensure_group(model_id)
     model = catalogue.MODELS[model_id]
     assert tree.name == nodes.group_name(model_id)
@@ -235,7 +225,6 @@ def test_every_default_group_matches_the_catalogue(nodes, model_id):
 
 
 def test_angles_and_factors_show_their_units_on_the_node(nodes, bpy):
-    needs_shader("lambert")
     tree = nodes.ensure_group("lambert")
     node = add_group_node(new_material(bpy), tree)
     kinds = {p.name: p.kind for p in catalogue.LIGHT_INPUTS + catalogue.GEOMETRY_INPUTS}
@@ -248,7 +237,6 @@ def test_angles_and_factors_show_their_units_on_the_node(nodes, bpy):
 
 
 def test_half_angle_socket_is_an_angle(nodes):
-    needs_shader("microfacet")
     tree = nodes.ensure_group("microfacet")
     (item,) = [s for s in interface_sockets(tree, "INPUT") if s.name == "Half-Angle"]
     assert item.subtype == "ANGLE"
@@ -256,7 +244,6 @@ def test_half_angle_socket_is_an_angle(nodes):
 
 
 def test_rebuilding_does_not_duplicate(nodes, bpy):
-    needs_shader("phong")
     first = nodes.ensure_group("phong")
     counts = (len(bpy.data.node_groups), len(bpy.data.texts))
     assert nodes.ensure_group("phong", normalization="none") == first
@@ -268,7 +255,6 @@ def test_rebuilding_does_not_duplicate(nodes, bpy):
 
 
 def test_a_foreign_group_with_the_same_name_is_not_taken(nodes, bpy):
-    needs_shader("lambert")
     foreign = bpy.data.node_groups.new("RM Lambert", "ShaderNodeTree")
     tree = nodes.ensure_group("lambert")
     assert tree != foreign and tree["rm_model"] == "lambert"
@@ -313,7 +299,6 @@ def _assert_user_setup_kept(nodes, mat, node, source, out, value_param, value):
 
 
 def test_upgrade_keeps_the_group_and_the_users_values_and_links(nodes, bpy):
-    needs_shader("lambert")
     tree = nodes.ensure_group("lambert")
     setup = _user_setup(bpy, nodes, tree, "albedo", (0.1, 0.2, 0.3))
     marker = tree.nodes.new("NodeReroute")
@@ -334,7 +319,6 @@ def test_upgrade_keeps_the_group_and_the_users_values_and_links(nodes, bpy):
 
 
 def test_ensure_group_upgrades_an_outdated_group_in_place(nodes):
-    needs_shader("lambert")
     tree = nodes.ensure_group("lambert")
     tree["rm_version"] = 0
     assert nodes.ensure_group("lambert") == tree
@@ -342,7 +326,6 @@ def test_ensure_group_upgrades_an_outdated_group_in_place(nodes):
 
 
 def test_variant_switch_keeps_values_links_and_drivers(nodes, bpy):
-    needs_shader("phong")
     tree = nodes.ensure_group("phong")
     setup = _user_setup(bpy, nodes, tree, "exponent", 7.0)
     mat, node, source, out = setup
@@ -361,7 +344,6 @@ def test_variant_switch_keeps_values_links_and_drivers(nodes, bpy):
 def test_width_switch_moves_drivers_to_the_right_sockets(nodes, bpy):
     """Sockets appear and disappear between width modes: index-based driver
     paths must follow their parameter."""
-    needs_shader("microfacet")
     tree = nodes.ensure_group("microfacet", distribution="trowbridge_reitz")
     mat, node, source, out = _user_setup(bpy, nodes, tree, "ks", (0.5, 0.6, 0.7))
     old_index = list(node.inputs).index(nodes.input_socket(node, "light_strength"))
@@ -374,7 +356,6 @@ def test_width_switch_keeps_keyframes_on_their_parameters(nodes, bpy):
     """Keyframes are index-based paths too: after a switch that moves sockets
     they must still animate their own parameter, and the keys of a socket the
     new variant lacks must come back with it."""
-    needs_shader("microfacet")
     tree = nodes.ensure_group("microfacet", distribution="trowbridge_reitz")
     mat = new_material(bpy)
     node = add_group_node(mat, tree)
@@ -411,7 +392,6 @@ def test_width_switch_keeps_keyframes_on_their_parameters(nodes, bpy):
 
 
 def test_variant_switch_resets_a_conflicting_enum(nodes, bpy):
-    needs_shader("microfacet")
     tree = nodes.ensure_group("microfacet", shadowing="smith_1967")
     node = add_group_node(new_material(bpy), tree)
     new_tree, reset = nodes.switch_variant(node, distribution="gaussian")
@@ -422,7 +402,6 @@ def test_variant_switch_resets_a_conflicting_enum(nodes, bpy):
 
 
 def test_scene_uses_rm_groups(nodes, bpy):
-    needs_shader("lambert")
     scene = bpy.context.scene
     mat = new_material(bpy)
     mesh = bpy.data.meshes.new("mesh")
@@ -521,7 +500,6 @@ def test_add_menu_lists_every_model_and_preset(ui, bpy):
 
 
 def test_add_operator_places_a_selected_group_node_at_the_cursor(ui, bpy):
-    needs_shader("lambert")
     mat = new_material(bpy)
     tree = mat.node_tree
     before = set(tree.nodes)
@@ -546,8 +524,7 @@ def test_add_operator_places_a_selected_group_node_at_the_cursor(ui, bpy):
 
 
 def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
-    needs_shader("phong")
-    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".nodes")
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.shading_system = False
@@ -587,8 +564,7 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
 
 
 def test_bind_light_operator_binds_the_lamp_chosen_not_the_active_one(ui, bpy):
-    needs_shader("lambert")
-    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".nodes")
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     node = add_group_node(new_material(bpy), nodes.ensure_group("lambert"))
     chosen = bpy.data.objects.new("Chosen", bpy.data.lights.new("Chosen", "POINT"))
     active = bpy.data.objects.new("Active", bpy.data.lights.new("Active", "SUN"))
@@ -620,8 +596,7 @@ def test_enable_osl_operator(ui, bpy):
 
 
 def test_load_and_render_handlers_warn_when_osl_is_off(ui, bpy, tmp_path, caplog):
-    needs_shader("lambert")
-    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".nodes")
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.shading_system = False

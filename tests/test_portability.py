@@ -22,8 +22,9 @@ import numpy as np
 import pytest
 
 from addon import catalogue
-from test_scenes import common, gonio
-from tools import bpy_env
+from verification import harness as common
+from verification.scenes import gonio
+from verification.harness import session as bpy_env
 
 MODES = ("path_traced", "exact")
 LIGHT = gonio.normalize((0.35, 0.2, 0.9))

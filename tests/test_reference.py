@@ -47,13 +47,7 @@ def D_of(dist, h, beta):
 
 
 def Lambda_of(dist, w, beta):
-    if dist in ("blinn", "gaussian"):
-        return R.Lambda_table(w[..., 0], w[..., 1], w[..., 2], beta, dist)
-    if dist == "trowbridge_reitz":
-        a = R.tr_alpha_from_beta(beta)
-        return R.Lambda_trowbridge_reitz(w[..., 0], w[..., 1], w[..., 2], a, a)
-    m = R.beckmann_m_from_beta(beta)
-    return R.Lambda_beckmann(w[..., 0], w[..., 1], w[..., 2], m, m)
+    return R.distribution(dist, beta=beta).Lambda(w[..., 0], w[..., 1], w[..., 2])
 
 
 def projected_area(D, omega, n_alpha=600, n_phi=256, sign=1.0):
@@ -215,18 +209,14 @@ def test_smith_1967_bracket_breaks_self_consistency():
 
 
 @pytest.mark.parametrize("dist", ["blinn", "gaussian"])
-def test_lambda_table_matches_direct_quadrature(dist):
-    rng = np.random.default_rng(7)
-    worst = 0.0
-    for beta in np.r_[1.0, 85.0, rng.uniform(1, 85, 10)] * DEG:
-        theta = np.linspace(0, 89.8, 300) * DEG
-        w = sph(theta)
-        lt = R.Lambda_table(w[:, 0], w[:, 1], w[:, 2], beta, dist)
-        # 96 nodes: the quadrature is converged to ~1e-12 by 48 (measured).
-        lq = R.Aminus_quadrature(np.cos(theta), beta, dist, nodes=96) / np.cos(theta)
-        worst = max(worst, np.max(np.abs(lt - lq) / (1 + lq)))
-    # What a G1 = 1/(1+Lambda) from the table can be off by, relative.
-    assert worst < 2e-5
+def test_one_lambda_approximation_for_blinn_and_gaussian(dist):
+    """Lambda_table (the earlier tabulated form's name), the types' Lambda and
+    Lambda_chebyshev are one and the same series."""
+    w = sph(np.linspace(0, 89.8, 50) * DEG)
+    beta = 33 * DEG
+    lc = R.Lambda_chebyshev(w[:, 0], w[:, 1], w[:, 2], beta, dist)
+    assert np.array_equal(R.Lambda_table(w[:, 0], w[:, 1], w[:, 2], beta, dist), lc)
+    assert np.array_equal(R.distribution(dist, beta=beta).Lambda(w[:, 0], w[:, 1], w[:, 2]), lc)
 
 
 @pytest.mark.parametrize("dist", ["blinn", "gaussian"])
@@ -261,8 +251,11 @@ def test_smith_G1_limits(dist):
     theta = np.linspace(0, 89, 200) * DEG
     lam = Lambda_of(dist, sph(theta), beta)
     g1 = 1 / (1 + lam)
+    assert np.all(lam >= 0.0)  # back-facing facets never have a negative area
     assert g1[0] == pytest.approx(1.0, abs=1e-12)  # normal incidence
-    assert np.all(np.diff(g1) <= 1e-12)  # monotone in theta
+    # monotone in theta: to float64 rounding for the closed forms; for Blinn and
+    # Gaussian to the series' accuracy (2e-6 in G1, test below)
+    assert np.all(np.diff(g1) <= (2e-6 if dist in ("blinn", "gaussian") else 1e-12))
     assert g1[-1] < 0.9
 
 

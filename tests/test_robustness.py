@@ -44,7 +44,8 @@ import numpy as np
 import pytest
 
 from addon import catalogue
-from test_scenes import common, gonio
+from verification import harness as common
+from verification.scenes import gonio
 
 NAN = float("nan")
 INF = float("inf")
@@ -329,7 +330,7 @@ def _script_nodes(tree, variant):
     """The model's shader, and the closure-only shader that feeds the
     groups' BSDF output when ``osl/rm_<model>_bsdf.osl`` exists (else the
     model's own BSDF output): ``(direct_node, bsdf_node)``."""
-    from addon import oslutil
+    from addon.backends.osl import compile as oslutil
 
     tangent = tree.nodes.new("ShaderNodeTangent")
     tangent.direction_type = 'UV_MAP'
@@ -542,7 +543,7 @@ shader rm_probe(float x = 0.0, color c = 0, vector w = 0, output closure color O
 def test_attribute_link_carries_nan_and_inf(bench, tmp_path):
     """The harness itself: NaN, +inf and -inf reach an OSL parameter through
     a face-attribute link unchanged (else the tests below would be vacuous)."""
-    from addon import oslutil
+    from addon.backends.osl import compile as oslutil
 
     bpy = bench.bpy
     (tmp_path / "rm_probe.osl").write_text(PROBE)
@@ -581,7 +582,7 @@ def test_bad_values_through_links_render_like_the_limit(bench, variant):
 # Constants through the node groups: typed values and Value/Math-node links
 
 def _api(bpy):
-    from addon import api, nodes
+    from addon import api, groups as nodes
     return api, nodes
 
 

@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Headless Cycles verification through the public API (``addon.api``).
 
-The same comparisons as ``make demo`` (test_scenes.verify), at a small
-resolution: every case of test_scenes.cases rendered on the virtual
+The same comparisons as ``make demo`` (verification.suites.verify), at a
+small resolution: every case of verification.suites.cases rendered on the virtual
 gonioreflectometer in exact mode (the model in OSL) and path-traced mode
 (Cycles closures), against ``addon.reference`` on the scene's analytic
 geometry; Blender's native Glossy BSDF as an independent oracle; the white
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from addon import catalogue
-from test_scenes import cases as cases_mod
-from test_scenes.verify import FURNACE_CASES  # numpy only: bpy is imported by the fixtures
+from verification.suites import cases as cases_mod
+from verification.suites.verify import FURNACE_CASES  # numpy only: bpy comes with the fixtures
 
 RES = 48  # pixels: 25 tiles of ~9 px, enough measured pixels (> 300) per render
 ONE_LIGHT = cases_mod.LIGHT_DIRS[:1]
@@ -36,7 +36,7 @@ def api(bpy):
 
 @pytest.fixture(scope="module")
 def verify(bpy):
-    from test_scenes import verify as v
+    from verification.suites import verify as v
     return v
 
 
@@ -74,8 +74,9 @@ def test_path_traced_status_per_version():
 # renders
 
 def _run(verify, api, case, mode):
-    r = verify.run_case(case, mode, resolution=RES, light_dirs=ONE_LIGHT, theta_d=THETA_D,
+    c = verify.run_case(case, mode, resolution=RES, light_dirs=ONE_LIGHT, theta_d=THETA_D,
                         api=api, keep_images=False)
+    r = dict(c.values, passed=c.passed)
     print(f"\n{case.id} {mode} [{r['status']}]: max {r['max_rel_error']:.2e} "
           f"rms {r['rms_rel_error']:.2e} over {r['n_pixels']} px")
     assert r["n_pixels"] > 100
@@ -92,8 +93,8 @@ def test_exact_mode_matches_reference(verify, api, case):
 @pytest.mark.parametrize("distribution", ["blinn", "gaussian"])
 @pytest.mark.parametrize("beta_deg", [1.0, 4.0, 60.0, 85.0])
 def test_exact_smith_lambda_across_beta(verify, api, distribution, beta_deg):
-    """The shaders' Chebyshev series for the Blinn and Gaussian Lambda against
-    the reference's table, at the ends of the beta range and between."""
+    """The shaders' Blinn and Gaussian Lambda (the series, evaluated in float32)
+    against the reference, at the ends of the beta range and between."""
     params = {"distribution": distribution, "shadowing": "smith_correlated",
               "beta": beta_deg * math.pi / 180.0}
     case = cases_mod.Case("microfacet", params, f"{distribution}/smith_correlated {beta_deg}",
@@ -109,7 +110,7 @@ def test_path_traced_mode(verify, api, case):
     if tol is None:
         # an approximation: measured and reported, no claim; it must still render finite light
         assert math.isfinite(r["max_rel_error"])
-        assert r["pass"] is None
+        assert r["passed"] is None
     else:
         # exact closures: float32 rounding (1e-3 leaves room); near: Walter's rational Lambda
         assert r["max_rel_error"] <= tol
@@ -120,7 +121,7 @@ def test_path_traced_mode(verify, api, case):
 def test_exact_mode_against_native_glossy(verify, api, distribution, alpha):
     # GGX: the same formula in float32 twice (1e-4); Beckmann: Cycles' rational Lambda (1e-2)
     r = verify.run_oracle(distribution, alpha, resolution=RES, light_dirs=cases_mod.LIGHT_DIRS,
-                          api=api, keep_images=False)
+                          api=api, keep_images=False).values
     print(f"\n{r['variant']}: max {r['max_rel_error']:.2e}; native vs reference "
           f"{r['native_vs_reference_max_rel_error']:.2e}")
     assert r["max_rel_error"] <= r["tolerance"]
@@ -131,9 +132,10 @@ def test_exact_mode_against_native_glossy(verify, api, distribution, alpha):
     for c in FURNACE_CASES])
 def test_furnace_energy_bound(verify, api, model, params, variant):
     # <= 1 plus 4 standard errors of each view-angle bin's mean (Monte Carlo noise)
-    r = verify.run_furnace(model, params, variant, resolution=40, samples=48, api=api,
+    c = verify.run_furnace(model, params, variant, resolution=40, samples=48, api=api,
                            keep_images=False)
+    r = c.values
     print(f"\n{model} {variant}: max albedo {r['max_albedo']:.4f}, margin {r['margin']:.1e}")
-    assert r["pass"], r
+    assert c.passed, r
     assert 0.2 < r["max_albedo"]  # it does reflect: a black material would pass trivially
     assert np.isfinite(r["mean_albedo"]).all()

@@ -1,0 +1,34 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Fresnel reflectance, exact and unpolarised (slide "Torrance-Sparrow
+Experiments": aluminium needs a complex index, magnesium oxide a real one)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def F_dielectric(c, ior):
+    """Exact unpolarised Fresnel reflectance of a dielectric of real index ``ior``
+    (Cook & Torrance 1982, eq. in appendix); total internal reflection gives 1."""
+    g2 = ior * ior - 1.0 + c * c
+    g = np.sqrt(np.maximum(g2, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (g - c) / (g + c)
+        b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
+    return np.where(g2 > 0.0, 0.5 * a * a * (1.0 + b * b), 1.0)
+
+
+def F_conductor(c, n, k):
+    """Exact unpolarised Fresnel reflectance for a complex index n + ik
+    (Born & Wolf; real-arithmetic form with a^2 + b^2 = |eta^2 - sin^2|)."""
+    c2 = c * c
+    s2 = 1.0 - c2
+    t0 = n * n - k * k - s2
+    ab2 = np.sqrt(t0 * t0 + 4.0 * n * n * k * k)
+    a = np.sqrt(np.maximum(0.5 * (ab2 + t0), 0.0))
+    two_ac = 2.0 * a * c
+    rs = (ab2 - two_ac + c2) / (ab2 + two_ac + c2)
+    u = c2 * ab2 + s2 * s2
+    v = two_ac * s2
+    rp = rs * (u - v) / (u + v)
+    return 0.5 * (rs + rp)

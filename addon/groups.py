@@ -1,0 +1,482 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Node groups of the reflection models in Blender.
+
+One shader node group per model variant (:mod:`addon.core.variants`: the
+name, the sockets, the width modes), built from the catalogue: Group Input
+-> the model's shaders -> Group Output.  Today the shaders are OSL Script
+nodes (:mod:`addon.backends.osl`): the model's exact shader for the Direct,
+Color and term outputs, its closure-only shader for the BSDF output, the
+enum parameters set as constant integers, and, in the variants that use a
+tangent, a Tangent node (UV map) feeding ``default_tangent``.
+
+Each group stores ``tree["rm_model"]`` (model id), ``tree["rm_variant"]``
+(its structural choices), ``tree["rm_version"]`` (:data:`NODES_VERSION` when
+built) and ``tree["rm_sockets"]`` (interface identifier -> ``"in:<param>"``
+or ``"out:<shader output>"``), which lets :func:`upgrade_group` and
+:func:`switch_variant` carry socket values, links, drivers and keyframes
+across a rebuild.
+
+Imports bpy: only for use inside Blender.
+"""
+
+from __future__ import annotations
+
+import re
+
+import bpy
+
+from .backends.osl import compile as osl_compile
+from .backends.osl.generate import shader_name
+from .core import catalogue
+from .core.variants import (  # noqa: F401  (re-exported for the UI and the tests)
+    CHOICE_LABELS, GROUP_PREFIX, MAX_NAME, NAME_LABELS, OUTPUT_DESCRIPTIONS, WIDTH_FROM_REFERENCE,
+    WIDTH_MODES, WIDTH_PARAM, WIDTH_SOCKETS, choice_label, group_name, input_params,
+    output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
+)
+
+NODES_VERSION = 4  # 2: a closure-only shader feeds the BSDF output;
+# 3: the UV Tangent node only in variants that use a tangent;
+# 4: shaders generated from the formula description (rm_library.h)
+"""Bump when the layout of the groups changes; older groups are then listed by
+:func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
+
+_SOCKET_TYPES = {"VALUE": "NodeSocketFloat", "INT": "NodeSocketInt",
+                 "RGBA": "NodeSocketColor", "VECTOR": "NodeSocketVector",
+                 "SHADER": "NodeSocketShader"}
+
+
+# ---------------------------------------------------------------------------
+# Finding groups
+
+def rm_info(tree) -> tuple | None:
+    """``(model id, variant dict)`` of a Reflection Models group, else None."""
+    if tree is None or getattr(tree, "bl_idname", "") != "ShaderNodeTree":
+        return None
+    model_id = tree.get("rm_model")
+    if not model_id or model_id not in catalogue.MODELS:
+        return None
+    variant = tree.get("rm_variant")
+    variant = variant.to_dict() if hasattr(variant, "to_dict") else dict(variant or {})
+    return str(model_id), variant
+
+
+def is_rm_node(node) -> bool:
+    return (getattr(node, "bl_idname", "") == "ShaderNodeGroup"
+            and rm_info(node.node_tree) is not None)
+
+
+def find_group(model_id: str, enums: dict | None = None):
+    """The local group of this model variant, or None (a group named like it
+    but without the same stored identity is not taken)."""
+    model, variant = resolve_variant(model_id, enums)
+    name = group_name(model_id, enums)
+    found = [t for t in bpy.data.node_groups
+             if t.library is None and rm_info(t) == (model.id, variant)]
+    found.sort(key=lambda t: t.name != name)
+    return found[0] if found else None
+
+
+def find_outdated_groups() -> list:
+    """Local groups built by an older :data:`NODES_VERSION`."""
+    return [t for t in bpy.data.node_groups
+            if t.library is None and rm_info(t) is not None
+            and int(t.get("rm_version", 0)) < NODES_VERSION]
+
+
+def _trees_with_nodes():
+    """Every node tree that can hold a shader group node."""
+    for coll in (bpy.data.materials, bpy.data.worlds, bpy.data.lights,
+                 getattr(bpy.data, "linestyles", ())):
+        for owner in coll:
+            tree = getattr(owner, "node_tree", None)
+            if tree is not None:
+                yield tree
+    for tree in bpy.data.node_groups:
+        if tree.bl_idname == "ShaderNodeTree":
+            yield tree
+
+
+def group_nodes(tree) -> list:
+    """Every group node (in any material, world, light or group) using ``tree``."""
+    return [node for owner in _trees_with_nodes() for node in owner.nodes
+            if node.bl_idname == "ShaderNodeGroup" and node.node_tree == tree]
+
+
+def _tree_uses_rm(tree, seen) -> bool:
+    if tree is None or tree.as_pointer() in seen:
+        return False
+    seen.add(tree.as_pointer())
+    for node in tree.nodes:
+        if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
+            if rm_info(node.node_tree) is not None or _tree_uses_rm(node.node_tree, seen):
+                return True
+    return False
+
+
+def scene_uses_rm_groups(scene) -> bool:
+    """Whether a material of an object of ``scene``, or its world, holds an
+    RM group node (directly or inside other groups)."""
+    seen = set()
+    if scene.world is not None and _tree_uses_rm(scene.world.node_tree, seen):
+        return True
+    materials = {slot.material for obj in scene.objects for slot in obj.material_slots
+                 if slot.material is not None}
+    return any(_tree_uses_rm(m.node_tree, seen) for m in materials)
+
+
+# ---------------------------------------------------------------------------
+# Building
+
+def ensure_group(model_id: str, **enums):
+    """The node group of ``model_id`` (a model or preset name) with the given
+    enum values (defaults for the others): reused if it exists, upgraded in
+    place if an older version built it, else built.  Raises ``ValueError``
+    for bad names or values, :class:`oslutil.OSLCompileError` if the shader
+    does not compile, ``FileNotFoundError`` if it does not exist."""
+    model, variant = resolve_variant(model_id, enums)
+    tree = find_group(model.id, variant)
+    if tree is None:
+        tree = bpy.data.node_groups.new(group_name(model.id, variant), "ShaderNodeTree")
+        try:
+            _build(tree, model.id, variant)
+        except Exception:
+            bpy.data.node_groups.remove(tree)
+            raise
+    elif int(tree.get("rm_version", 0)) < NODES_VERSION:
+        upgrade_group(tree)
+    return tree
+
+
+def _set_interface_socket(item, param) -> None:
+    kind = param.kind
+    if kind in ("angle", "factor"):
+        item.subtype = "ANGLE" if kind == "angle" else "FACTOR"
+    elif kind == "direction":
+        item.subtype = "DIRECTION"
+    elif kind == "position":
+        item.subtype = "TRANSLATION"
+    elif kind == "normal":
+        item.hide_value = True
+    if hasattr(item, "min_value"):
+        if param.minimum is not None:
+            item.min_value = param.minimum
+        if param.maximum is not None:
+            item.max_value = param.maximum
+    default = param.default
+    if kind == "color":
+        rgb = (default,) * 3 if isinstance(default, (int, float)) else tuple(default)
+        item.default_value = (*rgb, 1.0)
+    else:
+        item.default_value = default
+
+
+def _build(tree, model_id: str, variant: dict) -> None:
+    """(Re)build ``tree`` in place as the group of ``model_id`` ``variant``."""
+    model, _fixed, _defaults = catalogue.resolve(model_id)
+    tree.nodes.clear()
+    tree.interface.clear()
+
+    # Two shaders: the model (exact outputs and terms) and its closure alone
+    # for the BSDF output, so that a material using only BSDF compiles only
+    # the closure (Cycles leaves out nodes not connected to the output).
+    script = osl_compile.make_script_node(tree, shader_name(model.id))
+    script.location = (0.0, 0.0)
+    script.label = model.label
+    closure = osl_compile.make_script_node(tree, shader_name(model.id, True))
+    closure.location = (0.0, 400.0)
+    closure.label = model.label + " (BSDF)"
+    scripts = (closure, script)
+    for p in variant_params(model.id):
+        for node in scripts:
+            if p.name not in node.inputs:
+                raise RuntimeError(f"shader {node.name!r} has no int input {p.name!r}")
+            node.inputs[p.name].default_value = p.choices.index(variant[p.name])
+            node.inputs[p.name].hide = True
+
+    sockets = {}
+    outputs = [(closure, closure.outputs["BSDF"])]
+    outputs += [(script, out) for out in script.outputs if out.name != "BSDF"]
+    for node, out in outputs:
+        item = tree.interface.new_socket(
+            output_label(out.name), in_out="OUTPUT", socket_type=_SOCKET_TYPES[out.type],
+            description=OUTPUT_DESCRIPTIONS.get(
+                out.name, f"{output_label(out.name)}: a term of the model for the light "
+                          "of the Light inputs"))
+        sockets[item.identifier] = "out:" + out.name
+
+    params = input_params(model.id, variant)
+    panels = {}
+    inputs = []
+    for p in params:
+        parent = None
+        if p.panel:
+            parent = panels.get(p.panel)
+            if parent is None:
+                parent = panels[p.panel] = tree.interface.new_panel(p.panel)
+                parent.default_closed = p.panel in ("Light", "Geometry")
+        socket_type = {"color": "NodeSocketColor", "direction": "NodeSocketVector",
+                       "position": "NodeSocketVector",
+                       "normal": "NodeSocketVector"}.get(p.kind, "NodeSocketFloat")
+        item = tree.interface.new_socket(p.label, in_out="INPUT", socket_type=socket_type,
+                                         description=p.description, parent=parent)
+        _set_interface_socket(item, p)
+        sockets[item.identifier] = "in:" + p.name
+        inputs.append((item, p))
+
+    group_in = tree.nodes.new("NodeGroupInput")
+    group_in.location = (-450.0, 0.0)
+    group_out = tree.nodes.new("NodeGroupOutput")
+    group_out.location = (350.0, 0.0)
+    # The UV tangent only where the variant uses one: Cycles computes the
+    # mesh's tangents for every render and looks them up at every shading
+    # point once the node is in the graph, used or not (measured in
+    # tools/bench_render.py).  Without it, an isotropic model's frame takes
+    # any perpendicular (rm_frame), which changes nothing.
+    tangent = None
+    if uses_tangent(model.id, variant):
+        tangent = tree.nodes.new("ShaderNodeTangent")
+        tangent.direction_type = "UV_MAP"
+        tangent.location = (-450.0, -450.0)
+        tangent.label = "Default Tangent (UV Map)"
+
+    links = tree.links
+    for item, p in inputs:
+        if p.name not in script.inputs:
+            raise RuntimeError(f"shader {shader_name(model.id)!r} has no input {p.name!r}")
+        for node in scripts:
+            if p.name in node.inputs:
+                links.new(_by_identifier(group_in.outputs, item.identifier), node.inputs[p.name])
+    for node in scripts:
+        if tangent is not None and "default_tangent" in node.inputs:
+            links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
+    producers = {"BSDF": closure}
+    for identifier, key in sockets.items():
+        if key.startswith("out:"):
+            name = key[4:]
+            node = producers.get(name, script)
+            links.new(node.outputs[name], _by_identifier(group_out.inputs, identifier))
+
+    tree["rm_model"] = model.id
+    tree["rm_variant"] = dict(variant)
+    tree["rm_version"] = NODES_VERSION
+    tree["rm_sockets"] = sockets
+    if hasattr(tree, "description"):
+        tree.description = model.description
+
+
+def _by_identifier(collection, identifier):
+    for socket in collection:
+        if socket.identifier == identifier:
+            return socket
+    raise KeyError(identifier)
+
+
+def socket_key(node, socket) -> str:
+    """``"in:<param>"`` / ``"out:<output>"`` of a socket of an RM group node."""
+    keys = node.node_tree.get("rm_sockets") or {}
+    key = keys.get(socket.identifier)
+    if key:
+        return str(key)
+    return ("in:" if not socket.is_output else "out:") + socket.name
+
+
+def input_socket(node, name: str):
+    """The input socket of RM group ``node`` for parameter ``name``
+    (a catalogue name such as ``"beta"`` or ``"light_direction"``)."""
+    for socket in node.inputs:
+        if socket_key(node, socket) == "in:" + name:
+            return socket
+    raise KeyError(f"{node.name!r} has no input for {name!r}")
+
+
+def output_socket(node, name: str):
+    """The output socket of RM group ``node`` for shader output ``name``."""
+    for socket in node.outputs:
+        if socket_key(node, socket) == "out:" + name:
+            return socket
+    raise KeyError(f"{node.name!r} has no output {name!r}")
+
+
+# ---------------------------------------------------------------------------
+# Rebuilding while keeping the user's values, links and drivers
+
+_INPUT_PATH = re.compile(r'^(?P<node>nodes\[".*"\])\.inputs\[(?P<index>\d+)\]\.(?P<rest>.+)$')
+
+
+def _socket_value(socket):
+    if not hasattr(socket, "default_value"):
+        return None
+    value = socket.default_value
+    return tuple(value) if hasattr(value, "__len__") else value
+
+
+def snapshot(node) -> dict:
+    """Input values, links, drivers and keyframes of RM group ``node``, by
+    socket key.
+
+    Drivers and keyframes are kept as the F-curves themselves: their data
+    paths hold socket indices, which :func:`restore` rewrites."""
+    owner = node.id_data
+    snap = {"inputs": {}, "in_links": {}, "out_links": {}, "drivers": [], "keyframes": []}
+    for socket in node.inputs:
+        value = _socket_value(socket)
+        if value is not None:
+            snap["inputs"][socket_key(node, socket)] = value
+    for link in owner.links:
+        if link.to_node == node:
+            snap["in_links"][socket_key(node, link.to_socket)] = (
+                link.from_node.name, link.from_socket.identifier)
+        elif link.from_node == node:
+            snap["out_links"].setdefault(socket_key(node, link.from_socket), []).append(
+                (link.to_node.name, link.to_socket.identifier))
+    anim = owner.animation_data
+    if anim is not None:
+        prefix = node.path_from_id()
+        for fcurve in anim.drivers:
+            m = _INPUT_PATH.match(fcurve.data_path)
+            if m and m.group("node") == prefix and int(m.group("index")) < len(node.inputs):
+                key = socket_key(node, node.inputs[int(m.group("index"))])
+                snap["drivers"].append((fcurve, key, m.group("rest")))
+        for fcurve in _action_fcurves(anim):
+            m = _INPUT_PATH.match(fcurve.data_path)
+            if m and m.group("node") == prefix and int(m.group("index")) < len(node.inputs):
+                socket = node.inputs[int(m.group("index"))]
+                snap["keyframes"].append(
+                    (fcurve, socket_key(node, socket), socket.name, m.group("rest")))
+    return snap
+
+
+def _action_fcurves(anim) -> list:
+    """The F-curves (keyframes) of the action animating ``anim``'s owner:
+    through its slot in Blender's layered actions (4.4 and later), else the
+    action's own list."""
+    action = getattr(anim, "action", None)
+    if action is None:
+        return []
+    try:
+        from bpy_extras.anim_utils import action_get_channelbag_for_slot
+    except ImportError:
+        return list(action.fcurves)
+    bag = action_get_channelbag_for_slot(action, anim.action_slot)
+    return list(bag.fcurves) if bag is not None else []
+
+
+def _values_fit(current, value) -> bool:
+    if hasattr(current, "__len__"):
+        return isinstance(value, tuple) and len(value) == len(current)
+    return not isinstance(value, tuple)
+
+
+def restore(node, snap: dict) -> None:
+    """Put a :func:`snapshot` back on ``node`` after its group changed:
+    sockets that still exist (same key) get their values, links, drivers and
+    keyframes back; drivers of sockets that no longer exist are removed, and
+    their keyframes are kept on a path by socket name, which animates the
+    input again once a variant that has it is back."""
+    owner = node.id_data
+    by_key = {socket_key(node, s): s for s in list(node.inputs) + list(node.outputs)}
+    for key, value in snap["inputs"].items():
+        socket = by_key.get(key)
+        if socket is not None and hasattr(socket, "default_value") \
+                and _values_fit(socket.default_value, value):
+            socket.default_value = value
+    for key, (from_name, from_identifier) in snap["in_links"].items():
+        socket = by_key.get(key)
+        from_node = owner.nodes.get(from_name)
+        if socket is not None and from_node is not None:
+            for out in from_node.outputs:
+                if out.identifier == from_identifier:
+                    owner.links.new(out, socket)
+    for key, targets in snap["out_links"].items():
+        socket = by_key.get(key)
+        for to_name, to_identifier in (targets if socket is not None else ()):
+            to_node = owner.nodes.get(to_name)
+            for inp in (to_node.inputs if to_node is not None else ()):
+                if inp.identifier == to_identifier:
+                    owner.links.new(socket, inp)
+    anim = owner.animation_data
+    prefix = node.path_from_id()
+    index_of = {socket_key(node, s): i for i, s in enumerate(node.inputs)}
+    for fcurve, key, rest in snap["drivers"]:
+        if key not in index_of:
+            anim.drivers.remove(fcurve)
+            continue
+        fcurve.data_path = f"{prefix}.inputs[{index_of[key]}].{rest}"
+        fcurve.driver.is_valid = True
+    for fcurve, key, name, rest in snap["keyframes"]:
+        if key in index_of:
+            fcurve.data_path = f"{prefix}.inputs[{index_of[key]}].{rest}"
+        else:
+            fcurve.data_path = f'{prefix}.inputs["{bpy.utils.escape_identifier(name)}"].{rest}'
+        fcurve.is_valid = True
+
+
+def _reset(node) -> None:
+    """Remove every link of ``node`` and give its inputs the group's defaults
+    (a swapped group may reuse socket identifiers for other parameters)."""
+    owner = node.id_data
+    for link in list(owner.links):
+        if link.to_node == node or link.from_node == node:
+            owner.links.remove(link)
+    items = {item.identifier: item for item in node.node_tree.interface.items_tree
+             if item.item_type == "SOCKET" and item.in_out == "INPUT"}
+    for socket in node.inputs:
+        item = items.get(socket.identifier)
+        if item is not None and hasattr(item, "default_value"):
+            socket.default_value = item.default_value
+
+
+def upgrade_group(tree) -> None:
+    """Rebuild an RM group in place from the current catalogue and shader,
+    keeping the group itself (its name, and every node that uses it) and, on
+    those nodes, the values, links, drivers and keyframes of the sockets that
+    still exist."""
+    info = rm_info(tree)
+    if info is None:
+        raise ValueError(f"{tree.name!r} is not a Reflection Models group")
+    model_id, variant = info
+    _model, variant = resolve_variant(model_id, variant)
+    snaps = [(node, snapshot(node)) for node in group_nodes(tree)]
+    _build(tree, model_id, variant)
+    for node, snap in snaps:
+        _reset(node)
+        restore(node, snap)
+
+
+def switch_variant(node, **changes):
+    """Give RM group ``node`` the group of another variant of its model
+    (``changes``: enum values, e.g. ``distribution="trowbridge_reitz"``),
+    keeping the values, links, drivers and keyframes of the sockets both
+    variants have (keyframes of a socket the new variant lacks are kept for a
+    switch back, see :func:`restore`).
+
+    When the change makes another enum invalid (``smith_1967`` needs
+    ``beckmann``; native widths need Trowbridge-Reitz or Beckmann), that enum
+    falls back to its default.  Returns ``(tree, reset)``, ``reset`` the
+    names of the enums so reset.  Raises ``ValueError`` for bad names or
+    values."""
+    info = rm_info(node.node_tree)
+    if info is None:
+        raise ValueError(f"{node.name!r} is not a Reflection Models node")
+    model_id, current = info
+    merged = {**current, **changes}
+    reset = []
+    for p in (None,) + variant_params(model_id):
+        if p is not None:
+            if p.name in changes or merged.get(p.name) == p.default:
+                continue
+            merged[p.name] = p.default
+            reset.append(p.name)
+        try:
+            resolve_variant(model_id, merged)
+            break
+        except ValueError:
+            if p is None:
+                resolve_variant(model_id, changes)  # raises if the change itself is bad
+    tree = ensure_group(model_id, **merged)
+    snap = snapshot(node)
+    if node.node_tree != tree:
+        node.node_tree = tree
+    _reset(node)
+    restore(node, snap)
+    return tree, tuple(reset)

@@ -1,0 +1,42 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The generated documentation: the README's model table and one page per
+model gathering its faces; stale pages and missing faces fail."""
+
+from pathlib import Path
+
+import pytest
+
+from addon import catalogue
+from report import docs
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.mark.parametrize("path", sorted(docs.outputs()), ids=lambda p: p.name)
+def test_generated_documentation_is_up_to_date(path):
+    assert path.read_text(encoding="utf-8") == docs.outputs()[path], "run: python -m tools.gen_docs"
+
+
+def test_readme_lists_every_model():
+    text = docs.README.read_text(encoding="utf-8")
+    for model in catalogue.MODELS:
+        assert f"`{model}`" in text and f"docs/models/{model}.md" in text
+
+
+@pytest.mark.parametrize("model_id", list(catalogue.MODELS))
+def test_every_model_has_all_its_faces(model_id):
+    """Reference function, formula description, both shaders, node group and
+    tests: each exists where its page links."""
+    f = docs.faces(model_id)
+    assert set(f) == {"reference", "formula", "shader", "shader_bsdf", "node_group", "tests"}
+    for key, target in f.items():
+        for path, line, _what in (target if key == "tests" else [target]):
+            text = (ROOT / path).read_text(encoding="utf-8").splitlines()
+            assert 1 <= line <= len(text), (key, path, line)
+
+
+def test_a_missing_face_is_reported(monkeypatch):
+    from addon.core.formulas import models as formulas
+    monkeypatch.delitem(formulas.FORMULAS, "ward")
+    with pytest.raises(LookupError, match="no formula"):
+        docs.faces("ward")
