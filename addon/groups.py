@@ -170,11 +170,100 @@ def _set_interface_socket(item, param) -> None:
         item.default_value = default
 
 
+class _Spec:
+    """One interface socket of a group: its key (``"in:<param>"`` or
+    ``"out:<output>"``), label, direction, socket type, tooltip, panel and,
+    for inputs, the catalogue parameter that sets its subtype and limits."""
+
+    def __init__(self, key, label, in_out, socket_type, description, panel="", param=None):
+        self.key, self.label, self.in_out = key, label, in_out
+        self.socket_type, self.description = socket_type, description
+        self.panel, self.param = panel, param
+
+
+_OUTPUT_TYPES = {"c": "NodeSocketShader", "v": "NodeSocketColor", "f": "NodeSocketFloat"}
+_INPUT_TYPES = {"color": "NodeSocketColor", "direction": "NodeSocketVector",
+                "position": "NodeSocketVector", "normal": "NodeSocketVector"}
+
+
+def interface_specs(model_id: str, variant: dict) -> list:
+    """The group's interface in order: the outputs (BSDF, Direct, Color, the
+    model's terms), then the inputs with their panels."""
+    from .core.formulas.models import FORMULAS
+
+    terms = FORMULAS[model_id].terms
+    specs = []
+    for name, kind in (("BSDF", "c"), ("Direct", "c"), ("Color", "v")) + tuple(terms):
+        specs.append(_Spec("out:" + name, output_label(name), "OUTPUT", _OUTPUT_TYPES[kind],
+                           OUTPUT_DESCRIPTIONS.get(
+                               name, f"{output_label(name)}: a term of the model for the light "
+                                     "of the Light inputs")))
+    for p in input_params(model_id, variant):
+        specs.append(_Spec("in:" + p.name, p.label, "INPUT",
+                           _INPUT_TYPES.get(p.kind, "NodeSocketFloat"), p.description,
+                           p.panel, p))
+    return specs
+
+
+def _sync_interface(tree, specs) -> dict:
+    """Make ``tree``'s interface the ``specs``, in order, keeping the items
+    of sockets that stay (same key, direction and type): their identifiers,
+    and so the values, links, drivers and keyframes on the nodes using the
+    group (clearing the interface would delete the drivers and keyframes of
+    every socket).  Returns ``{identifier: key}``."""
+    iface = tree.interface
+    keys = dict(tree.get("rm_sockets") or {})
+    existing, panels = {}, {}
+    for item in list(iface.items_tree):
+        if item.item_type == "SOCKET":
+            key = keys.get(item.identifier)
+            if key is None or key in existing:
+                iface.remove(item)  # not ours, or a duplicate: rebuilt below
+            else:
+                existing[key] = item
+        elif item.item_type == "PANEL":
+            panels[item.name] = item
+    used_panels, placed, sockets = set(), {}, {}
+    for spec in specs:
+        parent = None
+        if spec.panel:
+            parent = panels.get(spec.panel)
+            if parent is None:
+                parent = panels[spec.panel] = iface.new_panel(spec.panel)
+            parent.default_closed = spec.panel in ("Light", "Geometry")
+            used_panels.add(spec.panel)
+        item = existing.pop(spec.key, None)
+        if item is not None and (item.in_out != spec.in_out
+                                 or item.socket_type != spec.socket_type):
+            iface.remove(item)
+            item = None
+        if item is None:
+            item = iface.new_socket(spec.label, in_out=spec.in_out, socket_type=spec.socket_type,
+                                    description=spec.description, parent=parent)
+        else:
+            item.name = spec.label
+            item.description = spec.description
+        if spec.param is not None:
+            _set_interface_socket(item, spec.param)
+        target = parent if parent is not None else item.parent
+        position = placed.get(target.name, 0)
+        if item.parent.name != target.name or item.position != position:
+            iface.move_to_parent(item, target, position)
+        placed[target.name] = position + 1
+        sockets[item.identifier] = spec.key
+    for item in existing.values():
+        iface.remove(item)
+    for name, panel in panels.items():
+        if name not in used_panels:
+            iface.remove(panel)
+    return sockets
+
+
 def _build(tree, model_id: str, variant: dict) -> None:
     """(Re)build ``tree`` in place as the group of ``model_id`` ``variant``."""
     model, _fixed, _defaults = catalogue.resolve(model_id)
+    sockets = _sync_interface(tree, interface_specs(model.id, variant))
     tree.nodes.clear()
-    tree.interface.clear()
 
     # Two shaders: the model (exact outputs and terms) and its closure alone
     # for the BSDF output, so that a material using only BSDF compiles only
@@ -193,36 +282,6 @@ def _build(tree, model_id: str, variant: dict) -> None:
             node.inputs[p.name].default_value = p.choices.index(variant[p.name])
             node.inputs[p.name].hide = True
 
-    sockets = {}
-    outputs = [(closure, closure.outputs["BSDF"])]
-    outputs += [(script, out) for out in script.outputs if out.name != "BSDF"]
-    for node, out in outputs:
-        item = tree.interface.new_socket(
-            output_label(out.name), in_out="OUTPUT", socket_type=_SOCKET_TYPES[out.type],
-            description=OUTPUT_DESCRIPTIONS.get(
-                out.name, f"{output_label(out.name)}: a term of the model for the light "
-                          "of the Light inputs"))
-        sockets[item.identifier] = "out:" + out.name
-
-    params = input_params(model.id, variant)
-    panels = {}
-    inputs = []
-    for p in params:
-        parent = None
-        if p.panel:
-            parent = panels.get(p.panel)
-            if parent is None:
-                parent = panels[p.panel] = tree.interface.new_panel(p.panel)
-                parent.default_closed = p.panel in ("Light", "Geometry")
-        socket_type = {"color": "NodeSocketColor", "direction": "NodeSocketVector",
-                       "position": "NodeSocketVector",
-                       "normal": "NodeSocketVector"}.get(p.kind, "NodeSocketFloat")
-        item = tree.interface.new_socket(p.label, in_out="INPUT", socket_type=socket_type,
-                                         description=p.description, parent=parent)
-        _set_interface_socket(item, p)
-        sockets[item.identifier] = "in:" + p.name
-        inputs.append((item, p))
-
     group_in = tree.nodes.new("NodeGroupInput")
     group_in.location = (-450.0, 0.0)
     group_out = tree.nodes.new("NodeGroupOutput")
@@ -230,8 +289,8 @@ def _build(tree, model_id: str, variant: dict) -> None:
     # The UV tangent only where the variant uses one: Cycles computes the
     # mesh's tangents for every render and looks them up at every shading
     # point once the node is in the graph, used or not (measured in
-    # tools/bench_render.py).  Without it, an isotropic model's frame takes
-    # any perpendicular (rm_frame), which changes nothing.
+    # verification/bench/render.py).  Without it, an isotropic model's frame
+    # takes any perpendicular, which changes nothing.
     tangent = None
     if uses_tangent(model.id, variant):
         tangent = tree.nodes.new("ShaderNodeTangent")
@@ -240,21 +299,20 @@ def _build(tree, model_id: str, variant: dict) -> None:
         tangent.label = "Default Tangent (UV Map)"
 
     links = tree.links
-    for item, p in inputs:
-        if p.name not in script.inputs:
-            raise RuntimeError(f"shader {shader_name(model.id)!r} has no input {p.name!r}")
-        for node in scripts:
-            if p.name in node.inputs:
-                links.new(_by_identifier(group_in.outputs, item.identifier), node.inputs[p.name])
+    for identifier, key in sockets.items():
+        kind, name = key.split(":", 1)
+        if kind == "in":
+            if name not in script.inputs:
+                raise RuntimeError(f"shader {shader_name(model.id)!r} has no input {name!r}")
+            for node in scripts:
+                if name in node.inputs:
+                    links.new(_by_identifier(group_in.outputs, identifier), node.inputs[name])
+        else:
+            node = closure if name == "BSDF" else script
+            links.new(node.outputs[name], _by_identifier(group_out.inputs, identifier))
     for node in scripts:
         if tangent is not None and "default_tangent" in node.inputs:
             links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
-    producers = {"BSDF": closure}
-    for identifier, key in sockets.items():
-        if key.startswith("out:"):
-            name = key[4:]
-            node = producers.get(name, script)
-            links.new(node.outputs[name], _by_identifier(group_out.inputs, identifier))
 
     tree["rm_model"] = model.id
     tree["rm_variant"] = dict(variant)

@@ -278,7 +278,9 @@ def test_osl_emission_constant_and_light_dependent(bpy, tmp_path):
     # the sun plays no part: light the scene from elsewhere
     g, img, stats = measure(bpy, mat, lambda wi, wo, n, t: np.maximum(0, n @ light)[:, None] * tint)
     print(f"OSL emission of max(0, N.L): {stats}")
-    assert stats["max_rel_error"] < 1e-5
+    # float32 N.L carries ~6e-8 of absolute rounding; at the smallest values measured
+    # (3.6e-3, near grazing) that is 1.7e-5 relative (bpy 4.5.16 measured 1.3e-5)
+    assert stats["max_rel_error"] < 2e-5
 
 
 GLOBALS = """
