@@ -8,6 +8,7 @@
 #   make test TESTS=tests/test_packaging.py PYTEST_ARGS=-x   a subset, extra pytest options
 #   make zip                   dist/reflection_models-<version>.zip
 #   make demo / make bench     the demo and benchmark scripts
+#   make fit                   the offline fit of the closure mixtures (about an hour)
 #   make venv                  only create/update the virtual environment
 #   make clean                 remove build/ and dist/ (the venvs stay; see distclean)
 #
@@ -53,7 +54,7 @@ else
   $(error BLENDER must be 5.2 or 4.5, not "$(BLENDER)")
 endif
 
-REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest matplotlib jinja2 mpmath
+REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest matplotlib jinja2 mpmath scipy
 REQ_HASH := $(shell printf '%s' '$(PYVER) $(REQUIREMENTS)' | md5sum | cut -c1-12)
 STAMP := $(VENV)/.reflection-models-$(REQ_HASH).stamp
 PY := $(VENV)/bin/python
@@ -66,7 +67,7 @@ RUN_TMP := $(CURDIR)/build/tmp/run-$(BLENDER)
 TESTS ?= tests
 PYTEST_ARGS ?=
 
-.PHONY: test test-all zip demo bench venv clean distclean
+.PHONY: test test-all zip demo bench fit venv clean distclean
 
 venv: $(STAMP)
 
@@ -108,6 +109,13 @@ demo: zip
 bench: $(STAMP)
 	@mkdir -p "$(RUN_TMP)"
 	TMPDIR="$(RUN_TMP)" $(PY) -m tools.bench
+
+# The offline fit of the closure mixtures (numpy and scipy; seeded, so the
+# same code gives the same data): about an hour on two cores.  Writes
+# addon/core/fits/mixtures.py; `make fit ONLY="key ..."` refits some.
+JOBS ?= 2
+fit: $(STAMP)
+	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 
 clean:
 	rm -rf build dist .pytest_cache

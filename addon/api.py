@@ -6,7 +6,7 @@ repository, ``user_default`` for one installed from disk)::
 
     from bl_ext.user_default.reflection_models import api as rm
 
-    rm.enable_osl(bpy.context.scene)      # Cycles, CPU, Open Shading Language on
+    rm.enable_osl(bpy.context.scene)      # optional: the OSL shaders (else native nodes)
     mat = bpy.data.materials.new("Brushed")
     node = rm.add_model(mat, "microfacet", distribution="trowbridge_reitz",
                         alpha_x=0.3, alpha_y=0.05, fresnel="conductor",
@@ -25,15 +25,19 @@ half-angle; any distribution), ``alpha`` (native isotropic roughness) or
 and Beckmann only); the group variant ("width mode") shows only that width's
 sockets.
 
-Two modes: ``"path_traced"`` connects the group's BSDF output (a Cycles
-closure, lit by every light) to the Material Output; ``"exact"`` connects its
-Direct output: the analytic value for one light, given by the node's Light
-inputs, which :func:`bind_light` drives from a lamp.
+Three modes: ``"path_traced"`` connects the group's BSDF output (Cycles
+closures, lit by every light) to the Material Output; ``"exact"`` connects
+its Direct output: the analytic value for the lamps given by the node's
+Light inputs (one to four), which :func:`bind_light` drives from lamps;
+``"hybrid"`` connects both, and takes the bound lamps away from the
+material's objects by light linking so that nothing counts twice.
 
-The shaders are OSL Script nodes: the scene must render with Cycles, on the
-CPU (OptiX runs OSL but without shadow rays), with Open Shading Language on.
-:func:`add_model` never changes the scene; call :func:`enable_osl` (or use the
-"Enable OSL" button of the Shader Editor sidebar).
+Each group holds the model as OSL shaders and as native nodes, and renders
+the OSL shaders where Open Shading Language runs (Cycles on the CPU with OSL
+on) and the native nodes everywhere else (GPU devices, EEVEE, OSL off);
+``backend="osl"`` or ``"native"`` forces one.  :func:`rendering_backend`
+says which one a scene renders; :func:`enable_osl` switches a scene to OSL.
+:func:`add_model` never changes the scene.
 """
 
 from __future__ import annotations
@@ -41,18 +45,19 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from . import groups
+from . import groups, lighting
 from .core import catalogue
 from .core.validation import validate
 
-MODES = {"path_traced": "BSDF", "exact": "Direct"}
+MODES = {"path_traced": "BSDF", "exact": "Direct", "hybrid": ("BSDF", "Direct")}
+BACKENDS = ("auto", "osl", "native")
 METALS = catalogue.METALS
-SUPPORTED_LIGHTS = ("SUN", "POINT")
-LIGHT_SOCKETS = tuple(p.name for p in catalogue.LIGHT_INPUTS)
+SUPPORTED_LIGHTS = lighting.SUPPORTED_LIGHTS
 
-__all__ = ["add_model", "set_params", "bind_light", "unbind_light", "bound_light",
-           "light_drivers", "enable_osl", "osl_status", "ensure_groups", "apply_metal",
-           "MODES", "METALS"]
+__all__ = ["add_model", "set_params", "set_mode", "get_mode", "bind_light", "unbind_light",
+           "bound_light", "bound_lights", "light_drivers", "sync_light_linking", "enable_osl",
+           "osl_status", "rendering_backend", "ensure_groups", "apply_metal", "MODES", "METALS",
+           "BACKENDS"]
 
 
 # ---------------------------------------------------------------------------
@@ -74,13 +79,21 @@ def _plain(param, value, model_name):
     return float(arr)
 
 
-def _split(model_name: str, params: dict, width_mode: str | None = None):
-    """Validate ``params`` (through :func:`addon.reference._check`) and split
-    them into ``(base model, enum values, checked values, names given)``.
-    The width mode follows the width given, else ``width_mode`` (the node's
-    current one), else the default (beta)."""
+def _split(model_name: str, params: dict, width_mode: str | None = None,
+           backend: str | None = None, lights: str | None = None):
+    """Validate ``params`` (through :func:`addon.core.validation.validate`)
+    and split them into ``(base model, enum values, checked values, names
+    given)``.  The width mode follows the width given, else ``width_mode``
+    (the node's current one), else the default (beta); the backend is
+    ``backend`` (default 'auto')."""
     model, values, given = validate(model_name, params)
     enums = {p.name: values[p.name] for p in model.params if p.is_enum}
+    backend = groups.BACKEND_PARAM.default if backend is None else backend
+    if backend not in groups.BACKEND_PARAM.choices:
+        raise ValueError(f"backend={backend!r} is not allowed; backend must be "
+                         f"{groups.BACKEND_PARAM.allowed()}")
+    enums[groups.BACKEND_PARAM.name] = backend
+    enums[groups.LIGHTS_PARAM.name] = groups.LIGHTS_PARAM.default if lights is None else lights
     if "width" in model.rules:
         gave_width = any(n in given for names in groups.WIDTH_SOCKETS.values() for n in names)
         if gave_width or width_mode is None:
@@ -114,28 +127,35 @@ def _rm_node_info(node):
     return info
 
 
-def add_model(material, model: str, mode: str = "path_traced", **params):
+def add_model(material, model: str, mode: str = "path_traced", *, backend: str = "auto",
+              **params):
     """Add the node group of ``model`` to ``material`` and connect it to the
     Material Output's Surface; returns the group node.
 
     - ``model``: a model or preset name of the catalogue (``lambert``,
       ``phong``, ``blinn_phong``, ``microfacet``, ``kajiya_kay``, ``ward``,
       ``torrance_sparrow``, ``cook_torrance``).
-    - ``mode``: ``"path_traced"`` (the BSDF output) or ``"exact"`` (the Direct
-      output; the material's emission sampling is set to None, so the
-      surface is not sampled as a lamp).
+    - ``mode``: ``"path_traced"`` (the BSDF output), ``"exact"`` (the Direct
+      output: the bound lamps evaluated analytically) or ``"hybrid"`` (both
+      added: the bound lamps exactly, everything else -- sky, other lamps,
+      bounces -- path traced, the bound lamps excluded from the material's
+      objects by light linking; see :func:`set_mode`).  For exact and
+      hybrid the material's emission sampling is set to None, so the
+      surface is not sampled as a lamp.
+    - ``backend``: ``"auto"`` (the OSL shader where Open Shading Language
+      runs, native nodes everywhere else: GPU devices, EEVEE, OSL off),
+      ``"osl"`` or ``"native"``.
     - ``params``: as for :func:`addon.reference.shade`: radians, RGB
       triples, enum values choose the group variant; a width for the
       microfacet model as ``beta``, ``alpha`` or ``alpha_x``/``alpha_y``.
       Every socket gets the catalogue default unless given.
 
-    Raises ``ValueError`` for an unknown model, mode, parameter or value.
+    Raises ``ValueError`` for an unknown model, mode, backend, parameter or
+    value.
     Does not touch the scene: see :func:`enable_osl`.
     """
-    if mode not in MODES:
-        raise ValueError(f"mode={mode!r} is not allowed; mode must be one of "
-                         + ", ".join(repr(m) for m in MODES))
-    base, enums, values, _given = _split(model, params)
+    _check_mode(mode)
+    base, enums, values, _given = _split(model, params, backend=backend)
     socket_values = _socket_values(base, enums, values,
                                    [p.name for p in base.params if not p.is_enum])
     tree = groups.ensure_group(base.id, **enums)
@@ -150,30 +170,92 @@ def add_model(material, model: str, mode: str = "path_traced", **params):
         node.label = catalogue.PRESETS[model].label
     node.location = (output.location.x - 300.0, output.location.y)
     _set_sockets(node, socket_values)
-    ntree.links.new(groups.output_socket(node, MODES[mode]), output.inputs["Surface"])
-    if mode == "exact":
-        material.cycles.emission_sampling = 'NONE'
+    _wire(node, mode, material)
     for other in ntree.nodes:
         other.select = other == node
     ntree.nodes.active = node
     return node
 
 
-def set_params(node, **params):
+def set_params(node, *, backend: str | None = None, **params):
     """Set parameters of an RM group ``node`` (names and units as in
-    :func:`add_model`); enum values, or a width given another way, switch the
-    node to another group variant, keeping its links and other values.
-    Returns the node."""
+    :func:`add_model`); enum values, a width given another way, or another
+    ``backend`` switch the node to another group variant, keeping its links
+    and other values.  Returns the node."""
     model_id, variant = _rm_node_info(node)
-    current = {k: v for k, v in variant.items() if k != groups.WIDTH_PARAM.name}
-    base, enums, values, _given = _split(model_id, {**current, **params},
-                                        variant.get(groups.WIDTH_PARAM.name))
+    current = {k: v for k, v in variant.items()
+               if k not in (groups.WIDTH_PARAM.name, groups.BACKEND_PARAM.name,
+                            groups.LIGHTS_PARAM.name)}
+    base, enums, values, _given = _split(
+        model_id, {**current, **params}, variant.get(groups.WIDTH_PARAM.name),
+        backend if backend is not None else variant.get(groups.BACKEND_PARAM.name),
+        variant.get(groups.LIGHTS_PARAM.name))
     socket_values = _socket_values(base, enums, values,
                                    [n for n in params if not base.param(n).is_enum])
-    if enums != variant:
+    if enums != groups.resolve_variant(model_id, variant)[1]:
         groups.switch_variant(node, **enums)
     _set_sockets(node, socket_values)
     return node
+
+
+def _check_mode(mode):
+    if mode not in MODES:
+        raise ValueError(f"mode={mode!r} is not allowed; mode must be one of "
+                         + ", ".join(repr(m) for m in MODES))
+
+
+def _material_of(node):
+    tree = node.id_data
+    for mat in bpy.data.materials:
+        if mat.node_tree == tree:
+            return mat
+    return None
+
+
+HYBRID_TAG = "rm_hybrid_of"
+
+
+def _wire(node, mode, material):
+    """Connect ``node``'s output for ``mode`` to the Material Output's
+    Surface (hybrid: an Add Shader of BSDF and Direct, tagged as ours)."""
+    ntree = node.id_data
+    output = _material_output(ntree)
+    for other in list(ntree.nodes):
+        if other.get(HYBRID_TAG) == node.name:
+            ntree.nodes.remove(other)
+    if mode == "hybrid":
+        add = ntree.nodes.new("ShaderNodeAddShader")
+        add[HYBRID_TAG] = node.name
+        add.label = "Hybrid: bound lamps exact + path traced"
+        add.location = (node.location.x + 200.0, node.location.y + 150.0)
+        ntree.links.new(groups.output_socket(node, "BSDF"), add.inputs[0])
+        ntree.links.new(groups.output_socket(node, "Direct"), add.inputs[1])
+        ntree.links.new(add.outputs[0], output.inputs["Surface"])
+    else:
+        ntree.links.new(groups.output_socket(node, MODES[mode]), output.inputs["Surface"])
+    node["rm_mode"] = mode
+    if mode != "path_traced" and material is not None:
+        material.cycles.emission_sampling = 'NONE'
+
+
+def set_mode(node, mode: str):
+    """Switch RM group ``node`` to ``mode`` (``"path_traced"``, ``"exact"``
+    or ``"hybrid"``): rewire the Material Output and bring the light linking
+    up to date (in hybrid mode every object using the material is excluded
+    from the lamps the node is bound to, so that nothing counts twice).
+    Returns the node."""
+    _rm_node_info(node)
+    _check_mode(mode)
+    _wire(node, mode, _material_of(node))
+    lighting.sync_light_linking()
+    return node
+
+
+def get_mode(node) -> str:
+    """The mode of RM group ``node``: ``"path_traced"``, ``"exact"`` or
+    ``"hybrid"``."""
+    _rm_node_info(node)
+    return lighting.node_mode(node)
 
 
 def apply_metal(node, metal: str):
@@ -232,6 +314,23 @@ def osl_status(scene) -> tuple:
     return problems, warnings
 
 
+def rendering_backend(scene) -> tuple:
+    """``(backend, reason)``: which shaders an 'auto' node renders with in
+    ``scene`` as it is set now: ``"osl"`` (Cycles on the CPU, or OptiX,
+    with Open Shading Language on), ``"native"`` (every other Cycles set-up
+    and EEVEE), or ``"none"`` (an engine that draws no materials, e.g.
+    Workbench)."""
+    engine = scene.render.engine
+    if engine != 'CYCLES':
+        if engine.startswith('BLENDER_EEVEE'):
+            return "native", "EEVEE runs native nodes"
+        return "none", f"the {engine} engine does not render shader nodes"
+    problems, warnings = osl_status(scene)
+    if not problems:
+        return "osl", "Cycles with Open Shading Language" + (f" ({warnings[0]})" if warnings else "")
+    return "native", "; ".join(problems)
+
+
 def _compute_device_type():
     addon = bpy.context.preferences.addons.get("cycles")
     return getattr(getattr(addon, "preferences", None), "compute_device_type", None)
@@ -250,79 +349,11 @@ def enable_osl(scene=None):
 # ---------------------------------------------------------------------------
 # Lights
 
-def _drive(socket, index, expression, variables):
-    """A scripted driver on ``socket.default_value[index]`` (index -1 for a
-    scalar) with a simple expression; ``variables``: name -> callable
-    filling a new driver variable."""
-    fcurve = socket.driver_add("default_value", index) if index >= 0 \
-        else socket.driver_add("default_value")
-    driver = fcurve.driver
-    driver.type = 'SCRIPTED'
-    while driver.variables:
-        driver.variables.remove(driver.variables[0])
-    for name, fill in variables.items():
-        var = driver.variables.new()
-        var.name = name
-        fill(var)
-    driver.expression = expression
-    for mod in list(fcurve.modifiers):  # driver_add adds a Generator modifier
-        fcurve.modifiers.remove(mod)
-    return fcurve
-
-
-def _prop(light_data, path):
-    def fill(var):
-        var.type = 'SINGLE_PROP'
-        target = var.targets[0]
-        target.id_type = 'LIGHT'
-        target.id = light_data
-        target.data_path = path
-    return fill
-
-
-def _transform(obj, channel):
-    def fill(var):
-        var.type = 'TRANSFORMS'
-        target = var.targets[0]
-        target.id = obj
-        target.transform_type = channel
-        target.transform_space = 'WORLD_SPACE'
-        target.rotation_mode = 'XYZ'
-    return fill
-
-
-# The sun shines along its local -Z: the direction toward it is the world
-# +Z axis, the third column of R = Rz Ry Rx (XYZ Euler).
-SUN_DIRECTION = (
-    "cos(rz) * sin(ry) * cos(rx) + sin(rz) * sin(rx)",
-    "sin(rz) * sin(ry) * cos(rx) - cos(rz) * sin(rx)",
-    "cos(ry) * cos(rx)",
-)
-# A sun's strength is the irradiance (W/m^2).  Radiant intensity (W/sr) of a
-# point lamp of power P, measured against a Diffuse BSDF in Cycles
-# (tests/test_api.py): P / (4 pi) with "normalize" on (the default); with it
-# off, P r^2 for a radius r > 0 and P / pi for r = 0.
-SUN_STRENGTH = "e * pow(2, x)"
-POINT_STRENGTH = "e * pow(2, x) * (1 / (4 * pi) if n else (r * r if r > 0 else 1 / pi))"
-LIGHT_COLOR = "c * (t if u else 1)"
-
-
-def unbind_light(node) -> None:
-    """Remove the drivers :func:`bind_light` put on the Light inputs."""
-    _rm_node_info(node)
-    for name in LIGHT_SOCKETS:
-        socket = groups.input_socket(node, name)
-        size = len(socket.default_value) if hasattr(socket.default_value, "__len__") else 0
-        if size:
-            for i in range(size):
-                socket.driver_remove("default_value", i)
-        else:
-            socket.driver_remove("default_value")
-
-
-def bind_light(node, light_object) -> None:
-    """Drive the Light inputs of RM group ``node`` from ``light_object``
-    (a SUN or POINT lamp) so that exact mode follows the lamp.
+def bind_light(node, *lamps) -> None:
+    """Drive the Light inputs of RM group ``node`` from ``lamps`` (1 to 4
+    SUN, POINT or SPOT lamp objects), so that exact mode (and the exact part
+    of hybrid mode) follows them: light k of the node follows lamp k, and
+    the result is the sum over the lamps.
 
     Drivers with simple expressions only (no Python auto-run needed):
 
@@ -333,59 +364,47 @@ def bind_light(node, light_object) -> None:
       Light Strength = power / (4 pi), the intensity (W/sr) of Cycles' point
       lamp (with "normalize" off: power * radius^2, or power / pi at
       radius 0).
+    - SPOT: as POINT, and Spot = 1, Light Direction = the lamp's world +Z
+      axis (its axis reversed), Spot Size and Spot Blend from the lamp: the
+      cone as Cycles computes it (for a lamp without scale).
     - Light Color = the lamp colour (times its blackbody colour when "use
       temperature" is on); strength times 2^exposure.
 
-    Other lamp types raise ``ValueError``.  The lamp's soft size and angle
-    are not modelled: exact mode treats it as a point or a direction.
+    The node gets the group variant with as many lights as lamps (each
+    costs a shadow ray).  In hybrid mode the objects using the material are
+    excluded from the lamps by light linking (:func:`set_mode`).  Other lamp
+    types, other objects, more than 4 lamps or a lamp given twice raise
+    ``ValueError``.  A lamp's soft size and angle are not modelled: exact
+    mode treats it as a point or a direction.
     """
-    _rm_node_info(node)
-    if getattr(light_object, "type", None) != 'LIGHT':
-        raise ValueError(f"{getattr(light_object, 'name', light_object)!r} is not a light object")
-    light = light_object.data
-    if light.type not in SUPPORTED_LIGHTS:
-        raise ValueError(f"{light_object.name!r} is a {light.type} light; allowed: "
-                         + ", ".join(SUPPORTED_LIGHTS))
-    unbind_light(node)
-    sun = light.type == 'SUN'
-    groups.input_socket(node, "point_light").default_value = 0.0 if sun else 1.0
-    if sun:
-        socket = groups.input_socket(node, "light_direction")
-        rot = {v: _transform(light_object, f"ROT_{v[1].upper()}") for v in ("rx", "ry", "rz")}
-        for i, expr in enumerate(SUN_DIRECTION):
-            _drive(socket, i, expr, rot)
-    else:
-        socket = groups.input_socket(node, "light_position")
-        for i, axis in enumerate("xyz"):
-            _drive(socket, i, axis, {axis: _transform(light_object, f"LOC_{axis.upper()}")})
-    strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure")}
-    if not sun:
-        strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
-    _drive(groups.input_socket(node, "light_strength"), -1,
-           SUN_STRENGTH if sun else POINT_STRENGTH, strength)
-    color = groups.input_socket(node, "light_color")
-    for i in range(3):
-        _drive(color, i, LIGHT_COLOR,
-               {"c": _prop(light, f"color[{i}]"), "t": _prop(light, f"temperature_color[{i}]"),
-                "u": _prop(light, "use_temperature")})
+    lighting.bind_lights(node, *lamps)
+
+
+def unbind_light(node) -> None:
+    """Remove what :func:`bind_light` added: the drivers on the Light
+    inputs, the extra lights, and the light linking of hybrid mode (not
+    what a user linked by hand)."""
+    lighting.unbind_lights(node)
+
+
+def bound_lights(node) -> list:
+    """The lamp objects the lights of ``node`` follow, in order."""
+    return lighting.bound_lights(node)
 
 
 def bound_light(node):
-    """The lamp object :func:`bind_light` bound ``node`` to, or None."""
-    for fcurve in light_drivers(node):
-        for var in fcurve.driver.variables:
-            if var.type == 'TRANSFORMS' and var.targets[0].id is not None:
-                return var.targets[0].id
-    return None
+    """The first lamp :func:`bind_light` bound ``node`` to, or None."""
+    lamps = lighting.bound_lights(node)
+    return lamps[0] if lamps else None
 
 
 def light_drivers(node) -> list:
     """The driver F-curves on the Light inputs of ``node``."""
-    anim = node.id_data.animation_data
-    if anim is None:
-        return []
-    paths = set()
-    for name in LIGHT_SOCKETS:
-        paths.add(groups.input_socket(node, name).path_from_id("default_value"))
-    return [fc for fc in anim.drivers if fc.data_path in paths]
+    return lighting.light_drivers(node)
 
+
+def sync_light_linking() -> int:
+    """Bring the light linking of hybrid mode up to date (objects that got
+    or lost a hybrid material since); the extension does this on render
+    and on save.  Returns the number of changes."""
+    return lighting.sync_light_linking()

@@ -26,17 +26,21 @@ import re
 import bpy
 
 from .backends.osl import compile as osl_compile
-from .backends.osl.generate import shader_name
+from .backends.osl.generate import enum_codes, shader_name
 from .core import catalogue
+from .core.formulas.models import NATIVE_CLOSURES
 from .core.variants import (  # noqa: F401  (re-exported for the UI and the tests)
-    CHOICE_LABELS, GROUP_PREFIX, MAX_NAME, NAME_LABELS, OUTPUT_DESCRIPTIONS, WIDTH_FROM_REFERENCE,
-    WIDTH_MODES, WIDTH_PARAM, WIDTH_SOCKETS, choice_label, group_name, input_params,
+    BACKEND_PARAM, CHOICE_LABELS, GROUP_PREFIX, LIGHTS_PARAM, MAX_NAME, NAME_LABELS,
+    OUTPUT_DESCRIPTIONS, WIDTH_FROM_REFERENCE, WIDTH_MODES, WIDTH_PARAM, WIDTH_SOCKETS,
+    choice_label, group_name, input_params,
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 4  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 5  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
-# 4: shaders generated from the formula description (rm_library.h)
+# 4: shaders generated from the formula description (rm_library.h);
+# 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
+#    spot inputs; 1 to 4 lights
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 
@@ -71,9 +75,21 @@ def find_group(model_id: str, enums: dict | None = None):
     model, variant = resolve_variant(model_id, enums)
     name = group_name(model_id, enums)
     found = [t for t in bpy.data.node_groups
-             if t.library is None and rm_info(t) == (model.id, variant)]
+             if t.library is None and _resolved_info(t) == (model.id, variant)]
     found.sort(key=lambda t: t.name != name)
     return found[0] if found else None
+
+
+def _resolved_info(tree):
+    """``rm_info`` with the variant's defaults filled in (a group made before
+    a structural parameter existed has the default), or None."""
+    info = rm_info(tree)
+    if info is None:
+        return None
+    try:
+        return info[0], resolve_variant(*info)[1]
+    except ValueError:
+        return None
 
 
 def find_outdated_groups() -> list:
@@ -111,6 +127,32 @@ def _tree_uses_rm(tree, seen) -> bool:
             if rm_info(node.node_tree) is not None or _tree_uses_rm(node.node_tree, seen):
                 return True
     return False
+
+
+def _tree_backends(tree, seen, out) -> None:
+    if tree is None or tree.as_pointer() in seen:
+        return
+    seen.add(tree.as_pointer())
+    for node in tree.nodes:
+        if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
+            info = _resolved_info(node.node_tree)
+            if info is not None:
+                out.add(info[1].get(BACKEND_PARAM.name, BACKEND_PARAM.default))
+            else:
+                _tree_backends(node.node_tree, seen, out)
+
+
+def scene_backends(scene) -> set:
+    """The backends ('auto', 'osl', 'native') of the RM groups that the
+    materials of ``scene``'s objects and its world use."""
+    seen, out = set(), set()
+    if scene.world is not None:
+        _tree_backends(scene.world.node_tree, seen, out)
+    for obj in scene.objects:
+        for slot in obj.material_slots:
+            if slot.material is not None:
+                _tree_backends(slot.material.node_tree, seen, out)
+    return out
 
 
 def scene_uses_rm_groups(scene) -> bool:
@@ -180,6 +222,8 @@ class _Spec:
         self.socket_type, self.description = socket_type, description
         self.panel, self.param = panel, param
 
+
+# The closures of the native nodes: all but Phong's lobe (phong_ramp).
 
 _OUTPUT_TYPES = {"c": "NodeSocketShader", "v": "NodeSocketColor", "f": "NodeSocketFloat"}
 _INPUT_TYPES = {"color": "NodeSocketColor", "direction": "NodeSocketVector",
@@ -260,59 +304,35 @@ def _sync_interface(tree, specs) -> dict:
 
 
 def _build(tree, model_id: str, variant: dict) -> None:
-    """(Re)build ``tree`` in place as the group of ``model_id`` ``variant``."""
+    """(Re)build ``tree`` in place as the group of ``model_id`` ``variant``:
+    the OSL shaders, the native nodes, or both with a switch (backend
+    'auto'), between the Group Input and the Group Output."""
     model, _fixed, _defaults = catalogue.resolve(model_id)
     sockets = _sync_interface(tree, interface_specs(model.id, variant))
     tree.nodes.clear()
-
-    # Two shaders: the model (exact outputs and terms) and its closure alone
-    # for the BSDF output, so that a material using only BSDF compiles only
-    # the closure (Cycles leaves out nodes not connected to the output).
-    script = osl_compile.make_script_node(tree, shader_name(model.id))
-    script.location = (0.0, 0.0)
-    script.label = model.label
-    closure = osl_compile.make_script_node(tree, shader_name(model.id, True))
-    closure.location = (0.0, 400.0)
-    closure.label = model.label + " (BSDF)"
-    scripts = (closure, script)
-    for p in variant_params(model.id):
-        for node in scripts:
-            if p.name not in node.inputs:
-                raise RuntimeError(f"shader {node.name!r} has no int input {p.name!r}")
-            node.inputs[p.name].default_value = p.choices.index(variant[p.name])
-            node.inputs[p.name].hide = True
-
     group_in = tree.nodes.new("NodeGroupInput")
-    group_in.location = (-450.0, 0.0)
+    group_in.location = (-700.0, 0.0)
     group_out = tree.nodes.new("NodeGroupOutput")
-    group_out.location = (350.0, 0.0)
-    # The UV tangent only where the variant uses one: Cycles computes the
-    # mesh's tangents for every render and looks them up at every shading
-    # point once the node is in the graph, used or not (measured in
-    # verification/bench/render.py).  Without it, an isotropic model's frame
-    # takes any perpendicular, which changes nothing.
-    tangent = None
-    if uses_tangent(model.id, variant):
-        tangent = tree.nodes.new("ShaderNodeTangent")
-        tangent.direction_type = "UV_MAP"
-        tangent.location = (-450.0, -450.0)
-        tangent.label = "Default Tangent (UV Map)"
+    group_out.location = (700.0, 0.0)
+    by_key = {key: identifier for identifier, key in sockets.items()}
 
-    links = tree.links
+    def group_input(name):
+        return _by_identifier(group_in.outputs, by_key["in:" + name])
+
+    backend = variant.get(BACKEND_PARAM.name, BACKEND_PARAM.default)
+    results = {}
+    if backend in ("auto", "osl"):
+        results["osl"] = _build_osl(tree, model, variant, group_input)
+    if backend in ("auto", "native"):
+        results["native"] = _build_native(tree, model, variant, group_input)
+    if backend == "auto":
+        outputs = _switch(tree, results["native"], results["osl"])
+    else:
+        outputs = results[backend]
     for identifier, key in sockets.items():
         kind, name = key.split(":", 1)
-        if kind == "in":
-            if name not in script.inputs:
-                raise RuntimeError(f"shader {shader_name(model.id)!r} has no input {name!r}")
-            for node in scripts:
-                if name in node.inputs:
-                    links.new(_by_identifier(group_in.outputs, identifier), node.inputs[name])
-        else:
-            node = closure if name == "BSDF" else script
-            links.new(node.outputs[name], _by_identifier(group_out.inputs, identifier))
-    for node in scripts:
-        if tangent is not None and "default_tangent" in node.inputs:
-            links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
+        if kind == "out" and outputs.get(name) is not None:
+            tree.links.new(outputs[name], _by_identifier(group_out.inputs, identifier))
 
     tree["rm_model"] = model.id
     tree["rm_variant"] = dict(variant)
@@ -320,6 +340,128 @@ def _build(tree, model_id: str, variant: dict) -> None:
     tree["rm_sockets"] = sockets
     if hasattr(tree, "description"):
         tree.description = model.description
+
+
+def _build_osl(tree, model, variant, group_input) -> dict:
+    """The OSL shaders: the exact one (Direct, Color, terms) and the variant's
+    closure-only one (BSDF: a path-traced material compiles only that)."""
+    script = osl_compile.make_script_node(tree, shader_name(model.id))
+    script.location = (0.0, 0.0)
+    script.label = model.label + " (OSL, exact)"
+    closure = osl_compile.make_script_node(tree, shader_name(model.id, True, variant))
+    closure.location = (0.0, 400.0)
+    closure.label = model.label + " (OSL, BSDF)"
+    scripts = (closure, script)
+    codes = enum_codes(model.id)
+    for p in variant_params(model.id):
+        if p.name not in codes:
+            continue
+        for node in scripts:
+            if p.name not in node.inputs:
+                raise RuntimeError(f"shader {node.name!r} has no int input {p.name!r}")
+            node.inputs[p.name].default_value = codes[p.name][variant[p.name]]
+            node.inputs[p.name].hide = True
+    for p in input_params(model.id, variant):
+        if p.name not in script.inputs:
+            raise RuntimeError(f"shader {shader_name(model.id)!r} has no input {p.name!r}")
+        for node in scripts:
+            if p.name in node.inputs:
+                tree.links.new(group_input(p.name), node.inputs[p.name])
+    # The UV tangent only where the variant uses one: Cycles computes the
+    # mesh's tangents for every render and looks them up at every shading
+    # point once the node is in the graph, used or not (measured in
+    # verification/bench/render.py).
+    if uses_tangent(model.id, variant):
+        tangent = tree.nodes.new("ShaderNodeTangent")
+        tangent.direction_type = "UV_MAP"
+        tangent.location = (-350.0, -450.0)
+        tangent.label = "Default Tangent (UV Map)"
+        for node in scripts:
+            if "default_tangent" in node.inputs:
+                tree.links.new(tangent.outputs["Tangent"], node.inputs["default_tangent"])
+    out = {"BSDF": closure.outputs["BSDF"]}
+    out.update({o.name: o for o in script.outputs})
+    return out
+
+
+def _build_native(tree, model, variant, group_input) -> dict:
+    """The native nodes, generated from the same description as the OSL:
+    the exact evaluation (the shadow through the Raycast node where Blender
+    has one) and the path-traced closures."""
+    from .backends.native import build as native_build
+    from .backends.native import emit as native_emit
+    from .core.formulas import models as formulas
+
+    formula = formulas.FORMULAS[model.id]
+    enums = {k: v for k, v in variant.items() if k != BACKEND_PARAM.name}
+    v = formulas.Values(model.id, enums, known=True)
+    s = formulas.shading(model.id, enums, caps=NATIVE_CLOSURES)
+    exact = formulas.exact(model.id, v, s)
+    graphs = {"BSDF": formula.closure(v, s), **exact}
+    plan, refs = native_emit.plan(graphs, **native_build.capabilities())
+    builder = native_build.Builder(tree, group_input, origin=(-350.0, -900.0),
+                                   label=f"{model.label}: native nodes (GPU, EEVEE, OSL off)")
+    out = builder.instantiate(plan, refs)
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.parent = builder.frame
+    emission.location = (-350.0, -700.0)
+    emission.inputs["Strength"].default_value = 1.0
+    _feed(tree, emission.inputs["Color"], out["Color"])
+    out["Direct"] = emission.outputs["Emission"]
+    tree["rm_native_nodes"] = builder.count
+    return out
+
+
+def _feed(tree, socket, src):
+    """Link an output socket, or set a constant ``("const", value)``."""
+    if src is None:
+        return
+    if isinstance(src, tuple) and src and src[0] == "const":
+        value = src[1]
+        current = socket.default_value
+        if hasattr(current, "__len__"):
+            vals = tuple(value) if isinstance(value, tuple) else (value,) * 3
+            socket.default_value = vals + (1.0,) * (len(current) - len(vals))
+        else:
+            socket.default_value = value
+        return
+    tree.links.new(src, socket)
+
+
+def _switch(tree, native: dict, osl: dict) -> dict:
+    """Per output, the OSL result where OSL runs, else the native one: the
+    factor comes from the rm_osl Script node (1), whose link Cycles drops
+    without OSL (the factor's default, 0, stays)."""
+    flag = osl_compile.make_script_node(tree, "rm_osl")
+    flag.location = (200.0, 700.0)
+    flag.label = "1 where OSL runs"
+    out = {}
+    y = 300.0
+    for name, osl_socket in osl.items():
+        native_src = native.get(name)
+        if osl_socket.type == "SHADER":
+            mix = tree.nodes.new("ShaderNodeMixShader")
+            mix.inputs[0].default_value = 0.0
+            tree.links.new(flag.outputs["osl"], mix.inputs[0])
+            _feed(tree, mix.inputs[1], native_src)
+            tree.links.new(osl_socket, mix.inputs[2])
+            result = mix.outputs[0]
+        else:
+            mix = tree.nodes.new("ShaderNodeMix")
+            mix.data_type = "RGBA" if osl_socket.type == "RGBA" else "FLOAT"
+            mix.clamp_factor = True
+            fac = mix.inputs[0]
+            fac.default_value = 0.0
+            tree.links.new(flag.outputs["osl"], fac)
+            ins = [s for s in mix.inputs if s.enabled][1:3]
+            _feed(tree, ins[0], native_src)
+            tree.links.new(osl_socket, ins[1])
+            result = next(s for s in mix.outputs if s.enabled)
+        mix.location = (450.0, y)
+        mix.label = f"{name}: OSL or native"
+        y -= 160.0
+        out[name] = result
+    return out
 
 
 def _by_identifier(collection, identifier):

@@ -15,13 +15,15 @@ import bpy
 from bpy.app.handlers import persistent
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import api, groups
+from . import api, groups, lighting
+from .backends.native import build as native_build
 from .core import catalogue
 
 log = logging.getLogger(__name__)
 
-OSL_OFF_WARNING = ("Reflection Models: this scene uses OSL script nodes but Open Shading "
-                   "Language is off; Cycles will render them black")
+OSL_OFF_WARNING = ("Reflection Models: this scene uses nodes forced to the OSL backend but "
+                   "Open Shading Language is off; Cycles will render them black (choose the "
+                   "'auto' backend to render native nodes there)")
 
 
 def _in_shader_editor(context) -> bool:
@@ -152,23 +154,23 @@ def _light_items(_self, context):
     for obj in sorted(objects, key=lambda o: o.name):
         if obj.type == 'LIGHT' and obj.data.type in api.SUPPORTED_LIGHTS:
             _LIGHT_ITEMS.append((obj.name, obj.name, f"{obj.data.type.title()} light",
-                                 'LIGHT_SUN' if obj.data.type == 'SUN' else 'LIGHT_POINT',
-                                 len(_LIGHT_ITEMS)))
+                                 {'SUN': 'LIGHT_SUN', 'SPOT': 'LIGHT_SPOT'}.get(
+                                     obj.data.type, 'LIGHT_POINT'), len(_LIGHT_ITEMS)))
     if not _LIGHT_ITEMS:
-        _LIGHT_ITEMS.append(("", "No sun or point light", "The scene has no sun or point "
-                             "light", 'ERROR', 0))
+        _LIGHT_ITEMS.append(("", "No sun, point or spot lamp", "The scene has no sun, point "
+                             "or spot lamp", 'ERROR', 0))
     return _LIGHT_ITEMS
 
 
 class NODE_OT_rm_bind_light(bpy.types.Operator):
     bl_idname = "node.rm_bind_light"
     bl_label = "Bind Light"
-    bl_description = ("Drive the Light inputs of the active Reflection Models node from a "
-                      "sun or point light (exact mode follows the lamp)")
+    bl_description = ("Drive the Light inputs of the active Reflection Models node from one "
+                      "sun, point or spot lamp (exact mode follows the lamp)")
     bl_options = {'REGISTER', 'UNDO'}
     bl_property = "light"
 
-    light: EnumProperty(name="Light", description="Sun or point light to follow",
+    light: EnumProperty(name="Light", description="Sun, point or spot lamp to follow",
                         items=_light_items)
 
     @classmethod
@@ -178,7 +180,7 @@ class NODE_OT_rm_bind_light(bpy.types.Operator):
     def execute(self, context):
         obj = bpy.data.objects.get(self.light)
         if obj is None:
-            self.report({'ERROR'}, "Choose a sun or point light")
+            self.report({'ERROR'}, "Choose a sun, point or spot lamp")
             return {'CANCELLED'}
         try:
             api.bind_light(_active_rm_node(context), obj)
@@ -198,16 +200,88 @@ class NODE_OT_rm_bind_light(bpy.types.Operator):
         return {'RUNNING_MODAL'}
 
 
+def _selected_lamps(context):
+    """The selected sun, point and spot lamps, the active one first."""
+    objects = [o for o in getattr(context, "selected_objects", ()) or ()
+               if o.type == 'LIGHT' and o.data.type in api.SUPPORTED_LIGHTS]
+    active = context.active_object
+    objects.sort(key=lambda o: (o != active, o.name))
+    return objects
+
+
+class NODE_OT_rm_bind_selected_lights(bpy.types.Operator):
+    bl_idname = "node.rm_bind_selected_lights"
+    bl_label = "Bind Selected Lamps"
+    bl_description = ("Make exact mode follow the selected sun, point and spot lamps (up to "
+                      "4, the active one first): one light of the node per lamp")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _active_rm_node(context) is not None and bool(_selected_lamps(context))
+
+    def execute(self, context):
+        lamps = _selected_lamps(context)
+        try:
+            api.bind_light(_active_rm_node(context), *lamps)
+        except ValueError as exc:
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
+        self.report({'INFO'}, "Bound " + ", ".join(o.name for o in lamps))
+        return {'FINISHED'}
+
+
+MODE_ITEMS = [("path_traced", "Path Traced", "The BSDF output: Cycles closures, lit by every "
+               "light of the scene"),
+              ("exact", "Exact", "The Direct output: the model evaluated analytically for the "
+               "bound lamps only"),
+              ("hybrid", "Hybrid", "The bound lamps exactly, everything else (sky, other "
+               "lamps, bounces) path traced; the bound lamps are excluded from the material's "
+               "objects by light linking")]
+
+
+class NODE_OT_rm_set_mode(bpy.types.Operator):
+    bl_idname = "node.rm_set_mode"
+    bl_label = "Mode"
+    bl_description = "Which output of the active node the material renders"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    mode: EnumProperty(name="Mode", items=MODE_ITEMS)
+
+    @classmethod
+    def poll(cls, context):
+        return _active_rm_node(context) is not None
+
+    def execute(self, context):
+        api.set_mode(_active_rm_node(context), self.mode)
+        return {'FINISHED'}
+
+
+class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
+    bl_idname = "node.rm_sync_light_linking"
+    bl_label = "Repair Light Linking"
+    bl_description = ("Exclude the bound lamps from every object that uses a hybrid material "
+                      "(and undo what is no longer needed); also done on render and save")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, _context):
+        n = api.sync_light_linking()
+        self.report({'INFO'}, f"Light linking: {n} change(s)")
+        return {'FINISHED'}
+
+
 class NODE_OT_rm_unbind_light(bpy.types.Operator):
     bl_idname = "node.rm_unbind_light"
-    bl_label = "Unbind Light"
-    bl_description = "Remove the drivers that make the active node's Light inputs follow a lamp"
+    bl_label = "Unbind Lamps"
+    bl_description = ("Remove what binding added: the drivers that make the active node's "
+                      "Light inputs follow lamps, the extra lights, hybrid mode's light linking")
     bl_options = {'REGISTER', 'UNDO'}
 
     @classmethod
     def poll(cls, context):
         node = _active_rm_node(context)
-        return node is not None and bool(api.light_drivers(node))
+        return node is not None and (bool(api.light_drivers(node))
+                                     or lighting.light_count(node) > 1)
 
     def execute(self, context):
         api.unbind_light(_active_rm_node(context))
@@ -248,14 +322,14 @@ class NODE_OT_rm_upgrade_groups(bpy.types.Operator):
         return bool(groups.find_outdated_groups())
 
     def execute(self, _context):
-        groups = groups.find_outdated_groups()
-        for tree in groups:
+        outdated = groups.find_outdated_groups()
+        for tree in outdated:
             try:
                 groups.upgrade_group(tree)
             except (ValueError, RuntimeError, OSError) as exc:
                 self.report({'ERROR'}, f"{tree.name}: {exc}")
                 return {'CANCELLED'}
-        self.report({'INFO'}, f"Upgraded {len(groups)} node group(s)")
+        self.report({'INFO'}, f"Upgraded {len(outdated)} node group(s)")
         return {'FINISHED'}
 
 
@@ -370,18 +444,23 @@ class NODE_PT_rm_sidebar(bpy.types.Panel):
 
 
 def _draw_osl(layout, scene):
+    """Which shaders the scene renders the nodes with, and why."""
     box = layout.box()
-    problems, warnings = api.osl_status(scene)
-    if problems:
-        col = box.column(align=True)
-        col.label(text="The scene cannot run the OSL nodes:", icon='ERROR')
-        for text in problems:
-            col.label(text=text)
-        box.operator(NODE_OT_rm_enable_osl.bl_idname, icon='CHECKMARK')
+    backend, reason = api.rendering_backend(scene)
+    if backend == "osl":
+        box.label(text="Renders with: OSL shaders", icon='CHECKMARK')
+        box.label(text=reason)
+    elif backend == "native":
+        box.label(text="Renders with: native nodes", icon='NODETREE')
+        box.label(text=reason)
+        if scene.render.engine == 'CYCLES':
+            box.operator(NODE_OT_rm_enable_osl.bl_idname, icon='SCRIPT')
     else:
-        box.label(text="OSL: ready (Cycles, CPU)", icon='CHECKMARK')
-    for text in warnings:
-        box.label(text=text, icon='INFO')
+        box.label(text="Nothing renders the nodes", icon='ERROR')
+        box.label(text=reason)
+    forced = groups.scene_backends(scene)
+    if "osl" in forced and backend != "osl":
+        box.label(text="A node forced to OSL renders black here", icon='ERROR')
 
 
 def _draw_node(layout, context, node):
@@ -398,25 +477,38 @@ def _draw_node(layout, context, node):
         box.operator_menu_enum(NODE_OT_rm_apply_metal.bl_idname, "metal", text="Metal Preset",
                                icon='MATERIAL')
     box = layout.box()
-    bound = api.bound_light(node)
-    box.label(text=f"Light: {bound.name}" if bound else "Light: the Light inputs",
-              icon='LIGHT')
-    obj = context.active_object
+    mode = api.get_mode(node)
+    row = box.row()
+    row.label(text="Mode")
+    row.operator_menu_enum(NODE_OT_rm_set_mode.bl_idname, "mode",
+                           text=dict((m, label) for m, label, _d in MODE_ITEMS)[mode])
+    bound = api.bound_lights(node)
+    box.label(text="Lamps: " + (", ".join(o.name for o in bound) if bound
+                                else "none (the Light inputs)"), icon='LIGHT')
+    lamps = _selected_lamps(context)
     row = box.row(align=True)
-    if obj is not None and obj.type == 'LIGHT' and obj.data.type in api.SUPPORTED_LIGHTS:
-        row.operator(NODE_OT_rm_bind_light.bl_idname,
-                     text=f"Bind {obj.name}").light = obj.name
-    row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind Light")
-    if bound is not None:
+    if lamps:
+        row.operator(NODE_OT_rm_bind_selected_lights.bl_idname,
+                     text="Bind " + ", ".join(o.name for o in lamps[:4]))
+    row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind One")
+    if bound:
         box.operator(NODE_OT_rm_unbind_light.bl_idname, icon='X')
+    if mode == "hybrid" and lighting.out_of_sync():
+        box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
+        box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
+    if mode != "path_traced" and not native_build.has_raycast() \
+            and api.rendering_backend(context.scene)[0] == "native":
+        box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
 
 
 # ---------------------------------------------------------------------------
 # Handlers
 
 def check_scene(scene) -> str | None:
-    """The warning for ``scene`` if it uses RM groups it cannot render, else None."""
-    if not groups.scene_uses_rm_groups(scene):
+    """The warning for ``scene`` if it uses RM groups it cannot render (a
+    group forced to the OSL backend where OSL does not run), else None.
+    Groups on the 'auto' or 'native' backend render everywhere."""
+    if "osl" not in groups.scene_backends(scene):
         return None
     problems, _warnings = api.osl_status(scene)
     if not problems:
@@ -425,8 +517,8 @@ def check_scene(scene) -> str | None:
         message = OSL_OFF_WARNING
         others = [p for p in problems if p != "Open Shading Language is off"]
     else:
-        message = ("Reflection Models: this scene uses OSL script nodes but cannot run "
-                   "them; they will render black")
+        message = ("Reflection Models: this scene uses nodes forced to the OSL backend but "
+                   "cannot run OSL; they will render black")
         others = problems
     if others:
         message += " (also: " + "; ".join(others) + ")"
@@ -446,15 +538,37 @@ def on_render_init(scene, *_args):
     message = check_scene(scene)
     if message:
         log.warning(message)
+    _sync_light_linking(in_render=True)
 
 
-HANDLERS = (("load_post", on_load_post), ("render_init", on_render_init))
+@persistent
+def on_save_pre(*_args):
+    _sync_light_linking()
+
+
+def _sync_light_linking(in_render=False):
+    """Hybrid mode's light linking for objects that got or lost a hybrid
+    material since (never lets a failure stop a render or a save)."""
+    try:
+        n = lighting.sync_light_linking(in_render=in_render)
+    except (RuntimeError, ReferenceError, TypeError) as exc:
+        log.warning("Reflection Models: could not update the light linking: %s", exc)
+        return
+    if n:
+        log.info("Reflection Models: light linking updated (%d change(s))", n)
+
+
+HANDLERS = (("load_post", on_load_post), ("render_init", on_render_init),
+            ("save_pre", on_save_pre))
 
 CLASSES = (
     NODE_OT_rm_add_model,
     NODE_OT_rm_enable_osl,
     NODE_OT_rm_switch_variant,
     NODE_OT_rm_bind_light,
+    NODE_OT_rm_bind_selected_lights,
+    NODE_OT_rm_set_mode,
+    NODE_OT_rm_sync_light_linking,
     NODE_OT_rm_unbind_light,
     NODE_OT_rm_apply_metal,
     NODE_OT_rm_upgrade_groups,

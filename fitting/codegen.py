@@ -17,8 +17,8 @@ def number(x: float) -> str:
 
 
 def array(values, indent: str = "    ", per_line: int = 4) -> str:
-    """A tuple literal of floats (or of tuples, for 2-D data)."""
-    values = list(values)
+    """A tuple literal of floats (or of tuples, for 2-D and 3-D data)."""
+    values = [v.tolist() if hasattr(v, "tolist") else v for v in values]
     if values and hasattr(values[0], "__len__"):
         rows = [array(v, indent + "    ", per_line) for v in values]
         return "(\n" + "".join(f"{indent}{r},\n" for r in rows) + indent[:-4] + ")"

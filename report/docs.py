@@ -114,13 +114,24 @@ def faces(model_id: str) -> dict:
     cls = type(formula).__name__
     out["formula"] = (_rel(f_file), _line_of(f_file, rf"^class {cls}\("),
                       f"the description `{cls}` (exact value, terms, closures)")
-    for closure_only in (False, True):
-        name = generate.shader_name(model_id, closure_only)
-        path = generate.SHADERS / f"{name}.osl"
-        if not path.is_file():
-            raise LookupError(f"{model_id}: no shader {path}")
-        out["shader_bsdf" if closure_only else "shader"] = (
-            _rel(path), 1, f"OSL `{name}` ({'path-traced closure' if closure_only else 'exact'})")
+    name = generate.shader_name(model_id)
+    path = generate.SHADERS / f"{name}.osl"
+    if not path.is_file():
+        raise LookupError(f"{model_id}: no shader {path}")
+    out["shader"] = (_rel(path), 1, f"OSL `{name}` (exact)")
+    closures = generate.closure_variants(model_id)
+    for name, _fixed in closures:
+        if not (generate.SHADERS / f"{name}.osl").is_file():
+            raise LookupError(f"{model_id}: no shader {name}.osl")
+    name = closures[0][0]
+    more = f", and {len(closures) - 1} more, one per distribution and shadowing" \
+        if len(closures) > 1 else ""
+    out["shader_bsdf"] = (_rel(generate.SHADERS / f"{name}.osl"), 1,
+                          f"OSL `{name}` (path-traced closure{more})")
+    n_file = ROOT / "addon" / "backends" / "native" / "emit.py"
+    out["native"] = (_rel(n_file), _line_of(n_file, r"^def plan\("),
+                     "native nodes planned from the same description (GPU devices, EEVEE, "
+                     "OSL off)")
     v_file = ROOT / "addon" / "core" / "variants.py"
     out["node_group"] = (_rel(v_file), _line_of(v_file, r"^def group_name\("),
                          f"node group `{variants.group_name(model_id)}` and its variants")
@@ -161,11 +172,13 @@ def render_model_page(model_id: str) -> str:
             + ")" for p in presets) + "."]
     lines += ["", "## Its faces", ""]
     labels = {"reference": "Reference (the judge)", "formula": "Renderer-side description",
-              "shader": "Shader", "shader_bsdf": "Shader", "node_group": "Node group"}
-    for key in ("reference", "formula", "shader", "shader_bsdf", "node_group"):
+              "shader": "Shader", "shader_bsdf": "Shader", "native": "Native nodes",
+              "node_group": "Node group"}
+    for key in ("reference", "formula", "shader", "shader_bsdf", "native", "node_group"):
         path, line, what = f[key]
         lines.append(f"- {labels[key]}: {what}: [`{path}`](../../{path}#L{line})")
     lines.append("- Tests: " + ", ".join(f"[`{p}`](../../{p})" for p, _l, _n in f["tests"]))
+    lines += ["", "## Path-traced output", ""] + _fidelity_lines(model_id)
     lines += ["", "## Measured error", ""]
     rows = _measured(model_id)
     if not rows:
@@ -182,6 +195,108 @@ def render_model_page(model_id: str) -> str:
             lines.append(f"| {r['variant']} | {r['backend']} | {r['mode']} | {r['status']} | "
                          f"{r['max_rel_error']:.2e} | {r['max_abs_over_peak']:.2e} | {tol} |")
     return "\n".join(lines) + "\n"
+
+
+def _variants(model_id):
+    params = [p for p in variants.variant_params(model_id)
+              if p is not variants.BACKEND_PARAM and p.name not in ("width_mode", "fresnel")]
+    combos = [{}]
+    for p in params:
+        combos = [dict(c, **{p.name: ch}) for c in combos for ch in p.choices]
+    out = []
+    for c in combos:
+        try:
+            variants.resolve_variant(model_id, c)
+        except ValueError:
+            continue
+        out.append(c)
+    return out
+
+
+FIDELITY_LEGEND = ("exact: a Cycles closure is the model; near: Cycles' closure with its "
+                   "rational Lambda (< 1 %); fitted: a fitted mixture of closures whose error "
+                   "the fitter bounds (below); approx: the best mixture or lobe found, "
+                   "measured, no bound.")
+
+
+def _fidelity_lines(model_id: str) -> list:
+    """Per variant and backend, how the BSDF output matches the model; the
+    fitter's own measurements of the fitted mixtures."""
+    from addon.core.formulas import mixtures
+
+    formula = formulas.FORMULAS[model_id]
+    lines = [FIDELITY_LEGEND]
+    if model_id == "microfacet":
+        lines += ["", "Any Fresnel (none, dielectric, conductor) rides on the microfacet "
+                  "members and has the status of its variant; Blender 4.5's conductor "
+                  "closure is an older approximation (up to 8 % off).  Widths: half-angle "
+                  "beta / native alpha / anisotropic alpha x, y."]
+    lines += ["", "| variant | OSL | native nodes |", "|---|---|---|"]
+    for enums in _variants(model_id):
+        label = ", ".join(enums.values()) or "default"
+        cells = []
+        for caps in (formulas.ALL_CLOSURES, formulas.NATIVE_CLOSURES):
+            text = formula.fidelity(dict(enums), caps)
+            if enums.get("distribution") in ("trowbridge_reitz", "beckmann"):
+                text += " / " + formula.fidelity(dict(enums, width_mode="alpha"), caps) + \
+                    " / " + formula.fidelity(dict(enums, width_mode="alpha_xy"), caps)
+            cells.append(text)
+        lines.append(f"| {label} | {cells[0]} | {cells[1]} |")
+    keys = [k for k in mixtures.FITS if k.split("/")[0] == model_id]
+    if keys:
+        lines += ["", "The fitted mixtures (`fitting/mixtures.py`, data in "
+                  "`addon/core/fits/mixtures.py`), as the fitter measured them between "
+                  "its nodes: the largest |mixture - model| over the model's peak with views "
+                  "and lights up to 70 deg (the fit's domain) and up to 85 deg, and the "
+                  "largest directional-albedo difference (views to 70 and to 85 deg).  "
+                  "'beyond alpha 1': native widths wider than any Cycles closure (which "
+                  "clamps alpha to 1).", "",
+                  "| fit | members | max \\|d\\|/peak, 70 deg | 85 deg | albedo, 70 deg "
+                  "| 85 deg | beyond alpha 1 |", "|---|---|---|---|---|---|---|"]
+        for k in keys:
+            m = mixtures.measured(k)
+            beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "-"
+            members = ', '.join(mixtures.FITS[k]['members'])
+            if k in mixtures.NOT_FITTED:
+                members = "not fitted yet: the single lobe of its kind"
+            lines.append(f"| `{k}` | {members} | "
+                         f"{m['max_abs_over_peak_70']:.3f} | {m['max_abs_over_peak_85']:.3f} | "
+                         f"{m['albedo_difference_70']:.3f} | {m['albedo_difference_85']:.3f} | "
+                         f"{beyond} |")
+    remains = REMAINS.get(model_id)
+    if remains:
+        lines += ["", remains]
+    return lines
+
+
+REMAINS = {
+    "microfacet": (
+        "What no mixture removes: a factor of the light direction that no closure has. "
+        "V-groove's G has a kink where the facet's shadowing switches sides; without "
+        "shadowing (G = 1) the lobe grows as 1/cos theta_i toward grazing light; the 1967 "
+        "bracket's factors per direction differ from any closure's.  For those the hybrid "
+        "mode (exact for the bound lamps, the mixture for the rest) is the exact answer.  "
+        "The Smith variants the committed run did not bring within 0.025 miss it at the "
+        "widest beta (75-85 deg), where Cycles clamps alpha to 1; the variants marked 'not "
+        "fitted yet' ship the single lobe of their kind until a complete `make fit` run."),
+    "ward": (
+        "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
+        "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
+        "Beckmann closure's shadowing no weight can carry.  The hybrid mode is exact."),
+    "kajiya_kay": (
+        "Kajiya-Kay's lobe is a cone around the fibre with the exponent's profile; Cycles' "
+        "hair reflection lobe has its own (Gaussian in the longitudinal angle) and no "
+        "mixture of the available closures follows the light-dependent sin theta_L of the "
+        "diffuse part.  The hybrid mode is exact."),
+    "blinn_phong": (
+        "Blinn-Phong has no shadowing term: like G = 1, its ratio to every closure depends "
+        "on the light direction.  The committed run's mixture (an Ashikhmin-Shirley lobe, "
+        "whose (N.H)^n is Blinn's, with GGX, Beckmann and diffuse members) measured 0.10-0.22 "
+        "of the peak up to an exponent of 5400, but its weights at the last node "
+        "(10000) oscillate over the view angle (2.7e8 between the view nodes): it is not "
+        "shipped, and the single Ashikhmin-Shirley lobe stands in until a refit bounds the "
+        "weights."),
+}
 
 
 def measured_rows(checks, blender: str) -> dict:

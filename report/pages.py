@@ -145,8 +145,8 @@ def fmt(x, spec=".2e"):
 
 def summary_table(checks):
     """A plain-text table of the gonio, oracle and furnace checks."""
-    lines = [f"{'model':18s} {'variant':52s} {'mode':11s} {'status':7s} {'max rel':>9s} "
-             f"{'rms rel':>9s} {'|d|/peak':>9s} {'tol':>8s}  result"]
+    lines = [f"{'model':18s} {'variant':46s} {'backend':7s} {'mode':11s} {'status':7s} "
+             f"{'max rel':>9s} {'rms rel':>9s} {'|d|/peak':>9s} {'tol':>8s}  result"]
     for c in checks:
         v = c.values
         if v["mode"] == "furnace":
@@ -155,10 +155,47 @@ def summary_table(checks):
             err, rms, tol = fmt(v["max_rel_error"]), fmt(v["rms_rel_error"]), \
                 fmt(v["tolerance"], ".0e")
         peak = fmt(v["max_abs_over_peak"]) if "max_abs_over_peak" in v else ""
-        lines.append(f"{v['model']:18.18s} {v['variant']:52.52s} {v['mode']:11s} "
+        lines.append(f"{v['model']:18.18s} {v['variant']:46.46s} {v.get('backend', 'osl'):7s} "
+                     f"{v['mode']:11s} "
                      f"{v.get('status', ''):7s} {err:>9s} {rms:>9s} {peak:>9s} {tol:>8s}  "
                      f"{c.verdict}")
     return "\n".join(lines)
+
+
+def checks_table_html(checks):
+    """A plain HTML table of checks: name, measured, expected, result."""
+    from html import escape
+    rows = ["<table><tr><th>check</th><th>measured</th><th>expected</th><th>result</th></tr>"]
+    for c in checks:
+        rows.append(f"<tr><td>{escape(c.name)}</td><td>{escape(c.measured)}</td>"
+                    f"<td>{escape(c.expected)}</td><td class=\"{c.verdict}\">{c.verdict}</td></tr>")
+    rows.append("</table>")
+    return "\n".join(rows)
+
+
+def fits_table_html():
+    """The fitted mixtures as the fitter measured them (from the data)."""
+    from html import escape
+
+    from addon.core.formulas import mixtures, models
+    rows = ["<table><tr><th>fit</th><th>members</th><th>max |Δ|/peak, views and lights "
+            "≤ 70°</th><th>≤ 85°</th><th>albedo Δ, views ≤ 70°</th><th>≤ 85°</th>"
+            "<th>beyond α 1</th><th>status</th></tr>"]
+    for key, d in mixtures.FITS.items():
+        m = d["measured"]
+        status = "fitted" if m["max_abs_over_peak_70"] <= models.FIT_BOUND else "approx"
+        beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "—"
+        members = ", ".join(d["members"])
+        if key in mixtures.NOT_FITTED:
+            members, status = "not fitted yet: the single lobe of its kind", "approx (single lobe)"
+        rows.append(f"<tr><td>{escape(key)}</td><td>{escape(members)}</td>"
+                    f"<td class=\"num\">{m['max_abs_over_peak_70']:.3f}</td>"
+                    f"<td class=\"num\">{m['max_abs_over_peak_85']:.3f}</td>"
+                    f"<td class=\"num\">{m['albedo_difference_70']:.3f}</td>"
+                    f"<td class=\"num\">{m['albedo_difference_85']:.3f}</td>"
+                    f"<td class=\"num\">{beyond}</td><td>{status}</td></tr>")
+    rows.append("</table>")
+    return "\n".join(rows)
 
 
 def write_json(path, checks):

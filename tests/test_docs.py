@@ -25,10 +25,11 @@ def test_readme_lists_every_model():
 
 @pytest.mark.parametrize("model_id", list(catalogue.MODELS))
 def test_every_model_has_all_its_faces(model_id):
-    """Reference function, formula description, both shaders, node group and
-    tests: each exists where its page links."""
+    """Reference function, formula description, both shaders, the native
+    node emitter, node group and tests: each exists where its page links."""
     f = docs.faces(model_id)
-    assert set(f) == {"reference", "formula", "shader", "shader_bsdf", "node_group", "tests"}
+    assert set(f) == {"reference", "formula", "shader", "shader_bsdf", "native", "node_group",
+                      "tests"}
     for key, target in f.items():
         for path, line, _what in (target if key == "tests" else [target]):
             text = (ROOT / path).read_text(encoding="utf-8").splitlines()

@@ -588,9 +588,11 @@ def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     rows += [("ward", "ward", {})]
     n_materials = len(bpy.data.materials)
     results = bench_render.bench(api, resolution=16, samples=1, frames=2, rounds=1, rows=rows)
-    assert [r["label"] for r in results] == [label for label, _model, _params in rows]
+    # a model's row twice: with OSL, and the native nodes with OSL off
+    assert [r["label"] for r in results] == [rows[0][0], rows[1][0], "ward",
+                                            "ward" + bench_render.NATIVE]
     assert set(results[0]) == set(results[1]) == {"label", "path_traced"}
-    assert set(results[2]) == {"label", "path_traced", "exact"}
+    assert set(results[2]) == set(results[3]) == {"label", "path_traced", "exact"}
     for row in results:
         for mode in ("path_traced", "exact"):
             if mode in row:
@@ -602,7 +604,8 @@ def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     bench_render.print_table(results, resolution=16, samples=1, frames=2, rounds=1)
     table = capsys.readouterr().out
     assert "native aniso" in table and "hair_reflection alone" in table and "ward" in table
-    assert "<=1.15" in table and "<=0.7" in table
+    assert "ward" + bench_render.NATIVE in table
+    assert "<= 1.15x with OSL" in table and "<=0.7" in table and "<= 1.3x" in table
 
 
 def test_instruction_counts_pair_each_frame_with_its_dump(tmp_path):
@@ -640,6 +643,7 @@ def test_instruction_count_renders_mark_every_frame(bpy, tmp_path):
 
     from addon import api
     from verification.bench import count as bench_count
+    from verification.bench import render as bench_render
 
     n_materials, n_scenes = len(bpy.data.materials), len(bpy.data.scenes)
     marks_path = tmp_path / "marks"
@@ -647,8 +651,9 @@ def test_instruction_count_renders_mark_every_frame(bpy, tmp_path):
                               resolution=8, samples=1)
     marks = [json.loads(line) for line in marks_path.read_text().splitlines()]
     expected = []
+    native = "lambert" + bench_render.NATIVE  # the native nodes, OSL off
     for label, mode in ((bench_count.BASELINE, "path_traced"), ("lambert", "path_traced"),
-                        ("lambert", "exact")):
+                        ("lambert", "exact"), (native, "path_traced"), (native, "exact")):
         for frame in (1, 2):
             expected += [[label, mode, frame, "pre"], [label, mode, frame, "post"]]
     assert marks == expected

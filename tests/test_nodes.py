@@ -131,6 +131,8 @@ def test_enum_codes_match_the_generated_shaders(nodes):
     for model_id in catalogue.MODELS:
         src = (generate.SHADERS / f"{generate.shader_name(model_id)}.osl").read_text()
         for p in nodes.variant_params(model_id):
+            if p.name == "backend":
+                continue  # the group's switch, not a shader input
             codes = generate.enum_codes(model_id)[p.name]
             assert codes == {c: i for i, c in enumerate(p.choices)}
             assert f"int {p.name} = {codes[p.default]}" in src
@@ -178,32 +180,46 @@ def test_every_default_group_matches_the_catalogue(nodes, model_id):
         else:
             assert default == pytest.approx(p.default, **F32)
 
-    # Two scripts: the model (exact outputs, terms) and its closure alone (BSDF).
+    # Three scripts: the model (exact outputs, terms), its closure alone
+    # (BSDF) and the flag that is 1 where OSL runs; and the native nodes.
+    from addon.backends.osl import generate
     scripts = {n.script.name: n for n in tree.nodes if n.bl_idname == "ShaderNodeScript"}
     script = scripts.pop(f"rm_{model_id}.osl")
-    closure = scripts.pop(f"rm_{model_id}_bsdf.osl")
+    closure = scripts.pop(generate.shader_name(model_id, True, variant) + ".osl")
+    flag = scripts.pop("rm_osl.osl")
     assert not scripts
+    assert tree["rm_native_nodes"] > 0
+    frame = next(n for n in tree.nodes if n.bl_idname == "NodeFrame")
+    native = [n for n in tree.nodes if n.parent == frame]
+    assert len(native) >= tree["rm_native_nodes"]
 
-    # outputs: BSDF (from the closure), Direct, Color, then every term, all linked
+    # outputs: BSDF, Direct, Color, then every term, each from a switch
+    # between the OSL output of the same name and the native one
     outputs = interface_sockets(tree, "OUTPUT")
     assert [s.name for s in outputs[:3]] == list(catalogue.MAIN_OUTPUTS)
     assert [s.socket_type for s in outputs[:3]] == ["NodeSocketShader", "NodeSocketShader",
                                                      "NodeSocketColor"]
-    assert [s.name for s in outputs] == [nodes.output_label(o.name) for o in script.outputs]
+    osl_outputs = [o.name for o in script.outputs]
+    assert [s.name for s in outputs] == [nodes.output_label(n) for n in ["BSDF"] + osl_outputs]
     assert all(s.description.strip() for s in outputs)
     group_out = next(n for n in tree.nodes if n.bl_idname == "NodeGroupOutput")
-    assert [link.to_node for link in closure.outputs["BSDF"].links] == [group_out]
-    assert not script.outputs["BSDF"].links  # a path-traced material compiles the closure only
-    for out in script.outputs:
-        if out.name != "BSDF":
-            assert [link.to_node for link in out.links] == [group_out], out.name
+    for item in outputs:
+        (link,) = [l for l in tree.links
+                   if l.to_node == group_out and l.to_socket.identifier == item.identifier]
+        switch = link.from_node
+        assert switch.bl_idname in ("ShaderNodeMixShader", "ShaderNodeMix"), item.name
+        (fac_link,) = switch.inputs[0].links
+        assert fac_link.from_node == flag and switch.inputs[0].default_value == 0.0
+        sources = {l.from_node for s in switch.inputs[1:] for l in s.links}
+        osl_source = closure if item.name == "BSDF" else script
+        assert osl_source in sources, item.name
+        assert any(n.parent == frame for n in sources) or len(sources) == 1, item.name
 
     # inside: every group input feeds the script inputs of the same parameter
     group_in = next(n for n in tree.nodes if n.bl_idname == "NodeGroupInput")
     tangents = [n for n in tree.nodes if n.bl_idname == "ShaderNodeTangent"]
     if nodes.uses_tangent(model_id, variant):
-        (tangent,) = tangents
-        assert tangent.direction_type == "UV_MAP"
+        assert tangents and all(t.direction_type == "UV_MAP" for t in tangents)
     else:  # an isotropic model needs no tangent; the node would cost render time
         assert not tangents
     for node in (script, closure):
@@ -215,12 +231,16 @@ def test_every_default_group_matches_the_catalogue(nodes, model_id):
             (link,) = node.inputs[p.name].links
             assert link.from_node == group_in and link.from_socket.identifier == item.identifier
         if tangents and (node is script or "tangent" in node.inputs):
-            assert node.inputs["default_tangent"].links[0].from_node == tangent
+            assert node.inputs["default_tangent"].links[0].from_node in tangents
         elif not tangents:
             assert not any(s.is_linked for s in node.inputs if "tangent" in s.name)
+        codes = generate.enum_codes(model_id)
         for p in nodes.variant_params(model_id):
-            assert node.inputs[p.name].default_value == p.choices.index(variant[p.name])
-            assert not node.inputs[p.name].is_linked
+            if p.name not in codes:
+                continue  # the backend is the group's, not a shader input
+            if p.name in node.inputs:
+                assert node.inputs[p.name].default_value == p.choices.index(variant[p.name])
+                assert not node.inputs[p.name].is_linked
         assert node.bytecode
 
 
@@ -394,7 +414,7 @@ def test_width_switch_keeps_keyframes_on_their_parameters(nodes, bpy):
 def test_variant_switch_resets_a_conflicting_enum(nodes, bpy):
     tree = nodes.ensure_group("microfacet", shadowing="smith_1967")
     node = add_group_node(new_material(bpy), tree)
-    new_tree, reset = nodes.switch_variant(node, distribution="gaussian")
+    new_tree, reset = nodes.switch_variant(node, distribution="trowbridge_reitz")
     assert reset == ("shadowing",)
     assert new_tree["rm_variant"].to_dict()["shadowing"] == "smith"
     with pytest.raises(ValueError):
@@ -531,18 +551,23 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     node = add_group_node(new_material(bpy), nodes.ensure_group("phong"))
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     panel = bpy.types.NODE_PT_rm_sidebar
-    ctx = shader_editor(scene=scene, active_node=node, active_object=sun)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=sun,
+                        selected_objects=[sun])
     assert panel.poll(ctx) and not panel.poll(shader_editor("GeometryNodeTree"))
 
     layout = Recorder()
     panel.draw(SimpleNamespace(layout=layout), ctx)
     ops = [entry[1] for entry in layout.of("operator")]
     assert "node.rm_enable_osl" in ops
+    # with OSL off the 'auto' groups render their native nodes, and the panel says so
+    assert ("label", "Renders with: native nodes") in [e[:2] for e in layout.log]
     assert ("label", "Open Shading Language is off") in layout.log
     assert ("menu", "NODE_MT_rm_variant_normalization", "None") in layout.of("menu")
-    assert ("operator", "node.rm_bind_light", "Bind Sun") == layout.of("operator")[-1][:3]
-    assert layout.of("operator_menu_enum")[0][1:] == ("node.rm_bind_light", "Bind Light",
-                                                      "light")
+    assert ("menu", "NODE_MT_rm_variant_backend", "Automatic") in layout.of("menu")
+    assert ("operator", "node.rm_bind_selected_lights", "Bind Sun") == \
+        layout.of("operator")[-1][:3]
+    assert [e[1:] for e in layout.of("operator_menu_enum")] == [
+        ("node.rm_set_mode", "Path Traced", "mode"), ("node.rm_bind_light", "Bind One", "light")]
     assert "node.rm_upgrade_groups" not in ops
 
     scene.cycles.shading_system = True
@@ -596,12 +621,18 @@ def test_enable_osl_operator(ui, bpy):
 
 
 def test_load_and_render_handlers_warn_when_osl_is_off(ui, bpy, tmp_path, caplog):
+    """Only a group forced to OSL needs it: the warning names that case; an
+    'auto' group renders native nodes and warns about nothing."""
     nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.shading_system = False
     mat = new_material(bpy)
     add_group_node(mat, nodes.ensure_group("lambert"))
+    with caplog.at_level(logging.WARNING):
+        ui.on_render_init(bpy.context.scene)
+    assert not caplog.records
+    add_group_node(mat, nodes.ensure_group("lambert", backend="osl"))
     mesh = bpy.data.meshes.new("mesh")
     mesh.materials.append(mat)
     scene.collection.objects.link(bpy.data.objects.new("obj", mesh))

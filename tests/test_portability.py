@@ -9,10 +9,12 @@
   extension installed (``tools.bpy_env.render_in_fresh_process``): the two
   renders must be bit-identical.  The node groups hold internal Script nodes
   (OSL source in Text datablocks), so nothing of the extension is needed.
-- A scene using the groups with Open Shading Language off renders black
-  (Cycles' SVM ignores Script nodes): the extension's load and render
-  handlers must log a clear warning instead of leaving it silent.  (Without
-  the extension installed nothing can warn: docs/compatibility.md.)
+  Both with Open Shading Language on (the groups' OSL shaders) and off
+  (their native nodes: Cycles drops Script nodes, and the groups switch).
+- With OSL off every group renders and nothing warns; a node forced to the
+  OSL backend renders black there, and the extension's load and render
+  handlers log a clear warning instead of leaving it silent.  (Without the
+  extension installed nothing can warn: docs/compatibility.md.)
 """
 
 import importlib
@@ -65,10 +67,16 @@ def build_every_model(bpy, api, name="portability"):
     return g, cases
 
 
+@pytest.mark.parametrize("osl", [True, False], ids=["osl_on", "osl_off"])
 def test_saved_file_renders_identically_without_the_extension(bpy, installed_extension,
-                                                              tmp_path):
+                                                              tmp_path, osl):
+    """With OSL on the groups render their OSL shaders, with it off their
+    native nodes; either way the saved file renders bit-identically in a
+    Blender without the extension."""
     api = _ext(installed_extension, "api")
-    g, cases = build_every_model(bpy, api)
+    g, cases = build_every_model(bpy, api, name=f"portability_{osl}")
+    g.scene.cycles.shading_system = osl
+    assert api.rendering_backend(g.scene)[0] == ("osl" if osl else "native")
     here = g.render(str(tmp_path / "authoring.exr"))
     assert np.isfinite(here).all()
     # the comparison is not black on black
@@ -94,8 +102,8 @@ def _warnings(caplog, text):
             if r.levelno >= logging.WARNING and text in r.getMessage()]
 
 
-def test_osl_off_warns_on_load_and_render_instead_of_silent_black(bpy, installed_extension,
-                                                                  tmp_path, caplog):
+def test_osl_off_renders_native_nodes_and_warns_only_for_nodes_forced_to_osl(
+        bpy, installed_extension, tmp_path, caplog):
     api = _ext(installed_extension, "api")
     ui = _ext(installed_extension, "ui")
     g, cases = build_every_model(bpy, api, name="osl_off")
@@ -103,9 +111,21 @@ def test_osl_off_warns_on_load_and_render_instead_of_silent_black(bpy, installed
 
     with caplog.at_level(logging.WARNING):
         img = g.render()
-    # measured: with OSL off Cycles renders the groups black ...
-    assert np.all(img[g.tile_index >= 0] == 0.0)
-    # ... and the render handler says why, naming the scene
+    # every tile renders (native nodes), and nothing needs a warning
+    black = [case for k, case in enumerate(cases) if not img[g.lit & (g.tile_index == k)].any()]
+    assert not black, black
+    assert not _warnings(caplog, "Reflection Models"), caplog.text
+
+    # a node forced to OSL renders black there, and the render handler says
+    # why, naming the scene
+    mat = g.tiles_object.data.materials[0]
+    node = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeGroup")
+    api.set_params(node, backend="osl")
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        img = g.render()
+    assert np.all(img[g.tile_index == 0] == 0.0)
+    assert img[g.lit & (g.tile_index == 1)].any()
     found = _warnings(caplog, ui.OSL_OFF_WARNING)
     assert found and any(repr(g.scene.name) in m for m in found), caplog.text
 

@@ -9,7 +9,9 @@ Prints tables; asserts nothing (speed is measured here, never in tests):
   (:mod:`verification.bench.render`);
 * count: the same ratio in instructions per frame under callgrind, which is
   repeatable where time is not (:mod:`verification.bench.count`; needs
-  valgrind).
+  valgrind);
+* eevee: EEVEE's shader compile time per model against a Principled BSDF,
+  and the native node count per model (:mod:`verification.bench.eevee`).
 """
 
 from __future__ import annotations
@@ -28,15 +30,21 @@ def main(argv=None):
     parser.add_argument("--reference", action="store_true", help="only the reference table")
     parser.add_argument("--render", action="store_true", help="only the render-time table")
     parser.add_argument("--count", action="store_true", help="only the instruction-count table")
+    parser.add_argument("--eevee", action="store_true",
+                        help="only the EEVEE compile-time and node-count tables")
     parser.add_argument("-n", type=int, default=1_000_000, help="batch size for the reference")
     args = parser.parse_args(argv)
-    every = not (args.reference or args.render or args.count)
+    every = not (args.reference or args.render or args.count or args.eevee)
     if args.reference or every:
         from verification.bench import reference
         reference.bench_reference(args.n)
     if args.render or every:
         from verification.bench import render
         render.main([])
+    if args.eevee or every:
+        import subprocess
+        # its own process: EEVEE's GPU context beside the render benchmarks' Cycles
+        subprocess.run([sys.executable, "-m", "verification.bench.eevee"], check=False)
     status = 0
     if args.count or every:
         from verification.bench import count

@@ -14,6 +14,7 @@ Pure Python: importing it needs neither numpy nor bpy.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -331,22 +332,47 @@ METALS = {
 
 LIGHT_INPUTS = (
     Param("point_light", "Point Light", "factor", 0.0,
-          "Exact mode: 0 is a sun (uses Light Direction), 1 a point light (uses Light "
+          "Exact mode: 0 is a sun (uses Light Direction), 1 a point or spot light (uses Light "
           "Position); set by Bind Light", minimum=0.0, maximum=1.0, panel="Light"),
     Param("light_direction", "Light Direction", "direction", (0.0, 0.0, 1.0),
-          "Exact mode, sun: world-space direction toward the light (normalised in the shader)",
-          panel="Light"),
+          "Exact mode: world-space direction toward a sun, or a spot's axis reversed (the "
+          "lamp's +Z); normalised in the shader", panel="Light"),
     Param("light_position", "Light Position", "position", (0.0, 0.0, 5.0),
-          "Exact mode, point light: world-space position of the light", panel="Light"),
+          "Exact mode, point or spot light: world-space position of the light", panel="Light"),
     Param("light_strength", "Light Strength", "float", 1.0,
-          "Exact mode: sun irradiance (W/m^2) or point-light intensity (W/sr)",
+          "Exact mode: sun irradiance (W/m^2) or point/spot intensity (W/sr)",
           minimum=0.0, maximum=1e6, soft_max=10.0, panel="Light"),
     Param("light_color", "Light Color", "color", (1.0, 1.0, 1.0),
           "Exact mode: colour of the light", minimum=0.0, maximum=1e6, panel="Light"),
     Param("shadows", "Shadows", "factor", 1.0,
-          "Exact mode: 1 casts a shadow ray toward the light (CPU only: trace() always "
-          "misses on OptiX), 0 ignores occluders", minimum=0.0, maximum=1.0, panel="Light"),
+          "Exact mode: 1 casts a shadow ray toward the light, 0 ignores occluders",
+          minimum=0.0, maximum=1.0, panel="Light"),
+    Param("spot", "Spot", "factor", 0.0,
+          "Exact mode, point light: 1 makes it a spot (cone of Spot Size around the reversed "
+          "Light Direction, edge softened by Spot Blend, as Cycles computes it)",
+          minimum=0.0, maximum=1.0, panel="Light"),
+    Param("spot_size", "Spot Size", "angle", 45.0 * DEG,
+          "Exact mode, spot: the cone's full angle", minimum=1.0 * DEG, maximum=180.0 * DEG,
+          unit="rad", panel="Light"),
+    Param("spot_blend", "Spot Blend", "factor", 0.15,
+          "Exact mode, spot: the softness of the cone's edge", minimum=0.0, maximum=1.0,
+          panel="Light"),
 )
+
+# Exact mode follows up to MAX_LIGHTS lamps; light k > 1 has the inputs of
+# LIGHT_INPUTS named <name>_<k> in the panel "Light <k>".
+MAX_LIGHTS = 4
+
+
+def light_inputs(k: int) -> tuple:
+    """The Light inputs of light ``k`` (1-based)."""
+    if k == 1:
+        return LIGHT_INPUTS
+    if not 1 <= k <= MAX_LIGHTS:
+        raise ValueError(f"light {k}: exact mode follows 1 to {MAX_LIGHTS} lights")
+    return tuple(dataclasses.replace(p, name=f"{p.name}_{k}", label=f"{p.label} {k}",
+                                     panel=f"Light {k}") for p in LIGHT_INPUTS)
+
 
 GEOMETRY_INPUTS = (
     Param("shading_normal", "Normal", "normal", (0.0, 0.0, 0.0),

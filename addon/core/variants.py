@@ -24,8 +24,23 @@ WIDTH_PARAM = catalogue.Param(
     "Beckmann only)",
     choices=WIDTH_MODES)
 WIDTH_SOCKETS = {"beta": ("beta",), "alpha": ("alpha",), "alpha_xy": ("alpha_x", "alpha_y")}
-# reference._check's name for the width it was given -> our width mode
+# validation's name for the width it was given -> our width mode
 WIDTH_FROM_REFERENCE = {"beta": "beta", "alpha": "alpha", "alpha_x": "alpha_xy"}
+
+BACKENDS = ("auto", "osl", "native")
+BACKEND_PARAM = catalogue.Param(
+    "backend", "Backend", "enum", "auto",
+    "Which shaders render: 'auto' the OSL shader where Open Shading Language runs (Cycles "
+    "on the CPU with OSL on) and native nodes everywhere else (GPU devices, EEVEE, OSL "
+    "off); 'osl' only the OSL shader; 'native' only native nodes",
+    choices=BACKENDS)
+LIGHT_COUNTS = tuple(str(k) for k in range(1, catalogue.MAX_LIGHTS + 1))
+LIGHTS_PARAM = catalogue.Param(
+    "lights", "Lights", "enum", "1",
+    f"How many lamps exact mode follows (1 to {catalogue.MAX_LIGHTS}); each has its Light "
+    "inputs, set by Bind Light", choices=LIGHT_COUNTS)
+# Parameters of a group that are not the catalogue's (validated here).
+GROUP_PARAMS = (WIDTH_PARAM, LIGHTS_PARAM, BACKEND_PARAM)
 
 CHOICE_LABELS = {  # in menus
     "none": "None", "energy": "Energy",
@@ -36,12 +51,19 @@ CHOICE_LABELS = {  # in menus
     "dielectric": "Dielectric", "conductor": "Conductor",
     "beta": "Half-Angle", "alpha": "Roughness (alpha)",
     "alpha_xy": "Anisotropic Roughness (alpha x, y)",
+    "auto": "Automatic", "osl": "OSL", "native": "Native Nodes",
+    **{k: f"{k} Lights" for k in LIGHT_COUNTS[1:]},
 }
 NAME_LABELS = {  # in group names: Blender 4.5 cuts ID names at 63 characters
+    "native": "Native",
     "trowbridge_reitz": "GGX", "smith_correlated": "Smith Corr.",
     "alpha": "Alpha", "alpha_xy": "Alpha XY",
 }
 MAX_NAME = 63
+# only where a name is too long
+SHORT_LABELS = {"dielectric": "Diel.", "conductor": "Cond.", "smith_correlated": "Smith C.",
+                "smith_1967": "S. 1967", "alpha_xy": "A. XY", "trowbridge_reitz": "GGX",
+                "native": "Nat.", **{k: f"{k} L." for k in LIGHT_COUNTS[1:]}}
 
 OUTPUT_DESCRIPTIONS = {
     "BSDF": ("Path traced: the model as a Cycles closure, lit by every light of the "
@@ -63,12 +85,13 @@ OUTPUT_DESCRIPTIONS = {
 
 def variant_params(model_id: str) -> tuple:
     """The structural parameters of a model (or a preset's base model): its
-    enum params, plus :data:`WIDTH_PARAM` for models with a width rule."""
+    enum params, :data:`WIDTH_PARAM` for models with a width rule, and
+    :data:`LIGHTS_PARAM` and :data:`BACKEND_PARAM`."""
     model, _fixed, _defaults = catalogue.resolve(model_id)
     params = tuple(p for p in model.params if p.is_enum)
     if "width" in model.rules:
         params += (WIDTH_PARAM,)
-    return params
+    return params + (LIGHTS_PARAM, BACKEND_PARAM)
 
 
 def resolve_variant(model_id: str, enums: dict | None = None) -> tuple:
@@ -88,7 +111,16 @@ def resolve_variant(model_id: str, enums: dict | None = None) -> tuple:
                 f"{key!r} is not a structural parameter of {model_id!r}; structural: "
                 f"{', '.join(sorted(structural)) or 'none'} (set other parameters on the "
                 "node's sockets)")
-    check = {k: v for k, v in enums.items() if k != WIDTH_PARAM.name}
+    check = {k: v for k, v in enums.items()
+             if k not in (WIDTH_PARAM.name, BACKEND_PARAM.name, LIGHTS_PARAM.name)}
+    lights = str(enums.get(LIGHTS_PARAM.name, LIGHTS_PARAM.default))
+    if lights not in LIGHT_COUNTS:
+        raise ValueError(f"lights={enums.get(LIGHTS_PARAM.name)!r} is not allowed; lights must be "
+                         f"{LIGHTS_PARAM.allowed()}")
+    backend = enums.get(BACKEND_PARAM.name, BACKEND_PARAM.default)
+    if backend not in BACKENDS:
+        raise ValueError(f"backend={backend!r} is not allowed; backend must be "
+                         f"{BACKEND_PARAM.allowed()}")
     width = None
     if "width" in model.rules:
         width = enums.get(WIDTH_PARAM.name, WIDTH_PARAM.default)
@@ -101,6 +133,8 @@ def resolve_variant(model_id: str, enums: dict | None = None) -> tuple:
     variant = {p.name: values[p.name] for p in model.params if p.is_enum}
     if width is not None:
         variant[WIDTH_PARAM.name] = width
+    variant[LIGHTS_PARAM.name] = lights
+    variant[BACKEND_PARAM.name] = backend
     return model, variant
 
 
@@ -120,9 +154,15 @@ def group_name(model_id: str, enums: dict | None = None) -> str:
     (the width mode only when it is not the default half-angle), at most
     :data:`MAX_NAME` characters."""
     model, variant = resolve_variant(model_id, enums)
-    parts = [NAME_LABELS.get(v) or choice_label(v) for k, v in variant.items()
-             if not (k == WIDTH_PARAM.name and v == WIDTH_PARAM.default)]
-    return GROUP_PREFIX + model.label + (f" ({', '.join(parts)})" if parts else "")
+    shown = [v for k, v in variant.items()
+             if not (k in (WIDTH_PARAM.name, BACKEND_PARAM.name, LIGHTS_PARAM.name)
+                     and v in (WIDTH_PARAM.default, BACKEND_PARAM.default, LIGHTS_PARAM.default))]
+    for short in ({}, SHORT_LABELS):
+        parts = [short.get(v) or NAME_LABELS.get(v) or choice_label(v) for v in shown]
+        name = GROUP_PREFIX + model.label + (f" ({', '.join(parts)})" if parts else "")
+        if len(name) <= MAX_NAME:
+            break
+    return name
 
 
 def socket_params(model_id: str, enums: dict | None = None) -> tuple:
@@ -150,7 +190,10 @@ def input_params(model_id: str, enums: dict | None = None) -> tuple:
     geometry = catalogue.GEOMETRY_INPUTS
     if not uses_tangent(model_id, enums):
         geometry = tuple(p for p in geometry if p.name not in ("tangent", "tangent_rotation"))
-    return socket_params(model_id, enums) + catalogue.LIGHT_INPUTS + geometry
+    model, variant = resolve_variant(model_id, enums)
+    count = int(variant.get(LIGHTS_PARAM.name, LIGHTS_PARAM.default))
+    lights = tuple(p for k in range(1, count + 1) for p in catalogue.light_inputs(k))
+    return socket_params(model_id, enums) + lights + geometry
 
 
 def output_label(name: str) -> str:

@@ -9,7 +9,8 @@ does not import bpy.
 """
 
 from .blender import (  # noqa: F401
-    add_orthographic_camera, add_sun, configure_cycles, empty_material, import_bpy,
+    add_orthographic_camera, add_sun, configure_cycles, configure_eevee, eevee_engine,
+    empty_material, import_bpy,
     material_uses_osl, new_scene, render_image, render_to_exr, set_linear_exr_output,
     set_world_background,
 )

@@ -217,3 +217,125 @@ def render_gallery(gallery, path=None):
         if remove and os.path.exists(path):
             os.remove(path)
     return np.asarray(img)
+
+
+# The three modes side by side: (label, model, params) per column.
+MODE_BALLS = (
+    ("Phong", "phong", {"normalization": "energy", "exponent": 60.0, "ks": (0.8, 0.8, 0.8)}),
+    ("Blinn-Phong", "blinn_phong", {"normalization": "energy", "exponent": 120.0,
+                                    "ks": (0.25, 0.45, 0.85)}),
+    ("Gaussian", "microfacet", {"distribution": "gaussian", "shadowing": "smith",
+                                "fresnel": "conductor", "ior": (0.166, 0.424, 1.38),
+                                "k": (3.15, 2.35, 1.91), "beta": 18 * DEG}),
+    ("V-groove", "microfacet", {"distribution": "beckmann", "shadowing": "vgroove",
+                                "beta": 20 * DEG}),
+    ("Ward", "ward", {"alpha_x": 0.35, "alpha_y": 0.08, "ks": (0.85, 0.85, 0.9)}),
+    ("Kajiya-Kay", "kajiya_kay", {}),
+)
+MODES = (("path traced", "path_traced"), ("exact", "exact"), ("hybrid", "hybrid"))
+
+
+def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
+                        balls=MODE_BALLS, name="modes"):
+    """Rows: path traced, exact (the bound sun and point lamp only) and
+    hybrid (those two exactly, the sky and bounces path traced); columns:
+    models.  Under a sun, a point lamp of radius 0 and a uniform sky."""
+    bpy = common.import_bpy()
+
+    w, h = resolution
+    n = len(balls)
+    scene = common.new_scene(name)
+    common.configure_cycles(scene, samples=samples, max_bounces=4, filter_width=1.5, osl=True)
+    scene.cycles.use_denoising = bool(denoise)
+    common.set_linear_exr_output(scene, (w, h))
+    api.enable_osl(scene)
+    common.set_world_background(scene, 0.35, (0.55, 0.7, 1.0))
+
+    spacing = 1.0
+    cam_data = bpy.data.cameras.new(name + "_camera")
+    cam_data.type = 'ORTHO'
+    cam_data.ortho_scale = (n + 1) * spacing
+    cam_data.sensor_fit = 'HORIZONTAL'
+    cam = bpy.data.objects.new(name + "_camera", cam_data)
+    cam.location = (-0.5 * spacing, -20.0, 0.0)
+    scene.collection.objects.link(cam)
+    _look_at(cam, (-0.5 * spacing, 0.0, 0.0))
+    scene.camera = cam
+
+    sun = bpy.data.lights.new(name + "_sun", 'SUN')
+    sun.energy = 2.5
+    sun.angle = 0.0
+    sun.color = (1.0, 0.93, 0.85)
+    sun_obj = bpy.data.objects.new(name + "_sun", sun)
+    sun_obj.location = (-4.0, -6.0, 6.0)
+    scene.collection.objects.link(sun_obj)
+    _look_at(sun_obj, (0.0, 0.0, 0.0))
+    point = bpy.data.lights.new(name + "_point", 'POINT')
+    point.energy = 250.0
+    point.shadow_soft_size = 0.0
+    point.color = (0.7, 0.8, 1.0)
+    point_obj = bpy.data.objects.new(name + "_point", point)
+    point_obj.location = (4.0, -3.0, 1.5)
+    scene.collection.objects.link(point_obj)
+
+    radius = 0.4
+    label_mat = _label_material(name + "_label")
+    materials, labels = [label_mat], []
+    import bmesh
+    for r, (row_label, mode) in enumerate(MODES):
+        z = (1 - r) * 1.05
+        txt = _text(bpy, f"{name}_row_{r}", row_label, label_mat,
+                    (-(n + 1) / 2.0 * spacing + 0.05, -0.5, z), align="LEFT")
+        scene.collection.objects.link(txt)
+        for i, (label, model, params) in enumerate(balls):
+            x = (i - (n - 1) / 2.0) * spacing
+            mat = bpy.data.materials.new(f"{name}_{mode}_{i}_{model}")
+            if bpy.app.version < (5, 0):
+                mat.use_nodes = True
+            node = api.add_model(mat, model, mode=mode, **params)
+            mat.cycles.emission_sampling = 'NONE'
+            materials.append(mat)
+            mesh = bpy.data.meshes.new(f"{name}_ball_{r}_{i}")
+            bm = bmesh.new()
+            try:
+                try:
+                    bmesh.ops.create_uvsphere(bm, u_segments=48, v_segments=24, radius=radius,
+                                              calc_uvs=True)
+                except TypeError:
+                    bmesh.ops.create_uvsphere(bm, u_segments=48, v_segments=24,
+                                              diameter=radius, calc_uvs=True)
+                for f in bm.faces:
+                    f.smooth = True
+                bm.to_mesh(mesh)
+            finally:
+                bm.free()
+            if not mesh.uv_layers:
+                mesh.uv_layers.new(name="UVMap")
+            mesh.materials.append(mat)
+            ball = bpy.data.objects.new(f"{name}_ball_{r}_{i}", mesh)
+            ball.location = (x, 0.0, z)
+            ball.rotation_euler = (0.0, 25.0 * DEG, 0.0)
+            scene.collection.objects.link(ball)
+            if mode != "path_traced":
+                api.bind_light(node, sun_obj, point_obj)
+            if r == len(MODES) - 1:
+                txt = _text(bpy, f"{name}_label_{i}", label, label_mat,
+                            (x, -0.5, z - radius - 0.1))
+                scene.collection.objects.link(txt)
+                labels.append(label)
+    api.sync_light_linking()
+    return Gallery(scene=scene, labels=labels, resolution=(w, h), samples=samples,
+                   materials=materials)
+
+
+def _text(bpy, name, body, material, location, align="CENTER"):
+    curve = bpy.data.curves.new(name, 'FONT')
+    curve.body = body
+    curve.align_x = align
+    curve.align_y = 'TOP' if align == "CENTER" else 'CENTER'
+    curve.size = 0.13
+    curve.materials.append(material)
+    txt = bpy.data.objects.new(name, curve)
+    txt.location = location
+    txt.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    return txt

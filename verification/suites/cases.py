@@ -3,23 +3,26 @@
 
 Each :class:`Case` is one material: a model (or preset) of
 ``addon.catalogue`` with parameters named and measured as in
-``addon.reference`` (angles in radians, colours RGB), a short ``variant``
-string for tables ("gaussian/smith", "energy", ...) and the status of its
-path-traced output (the ``BSDF`` socket, built from Cycles closures):
+``addon.reference`` (angles in radians, colours RGB) and a short ``variant``
+string for tables ("gaussian/smith", "energy", ...).
+
+The status of its path-traced output (the ``BSDF`` socket, built from
+Cycles closures) depends on the backend's closures and comes from the
+formula description (``Formula.fidelity``):
 
 - ``"exact"``: the closure is the model itself: Lambert (``diffuse``),
-  Phong in both normalisations (``phong_ramp`` times a constant),
-  microfacet Trowbridge-Reitz + ``smith_correlated`` with any Fresnel
-  (``microfacet("ggx")``, ``dielectric_bsdf``, ``conductor_bsdf``) -- the
-  conductor only from Blender 5.2 (4.5's ``conductor_bsdf`` uses an older
+  Phong in OSL (``phong_ramp`` times a constant), microfacet
+  Trowbridge-Reitz + ``smith_correlated`` with any Fresnel -- the conductor
+  only from Blender 5.2 (4.5's conductor closure uses an older
   approximation, off by up to 8 %).
 - ``"near"``: Beckmann + ``smith_correlated``: Cycles' height-correlated
   Smith uses Walter 2007's rational Lambda instead of the erf form
   (measured up to 6e-3 relative).
-- ``"approx"``: everything else (Blinn-Phong, Blinn and Gaussian D,
-  separable Smith, V-groove, the 1967 bracket, no shadowing, Ward,
-  Kajiya-Kay): the closure is a stand-in; the report gives the measured
-  error and claims no tolerance.
+- ``"fitted"``: a mixture of closures fitted offline (fitting/mixtures.py)
+  whose largest error the fitter measured within the bound; checked here
+  as the largest difference over the peak.
+- ``"approx"``: everything else: the best mixture or lobe; the report gives
+  the measured error and claims no tolerance.
 
 Importing this needs no bpy.
 """
@@ -30,17 +33,21 @@ import math
 from dataclasses import dataclass, field
 
 from addon import catalogue
+from addon.core import variants
+from addon.core.formulas import models as formulas
 
 from ..harness.checks import tolerance
 
 DEG = math.pi / 180.0
 
-EXACT, NEAR, APPROX = "exact", "near", "approx"
+EXACT, NEAR, FITTED, APPROX = "exact", "near", "fitted", "approx"
 
 # Path-traced tolerance of each status (None: measured, no claim), from the
-# one tolerance table (verification/harness/checks.py).
+# one tolerance table (verification/harness/checks.py).  'fitted' is on the
+# largest difference over the peak, the others on the relative error.
 PATH_TRACED_TOLERANCE = {EXACT: tolerance("path_traced_exact"), NEAR: tolerance("path_traced_near"),
-                         APPROX: None}
+                         FITTED: tolerance("path_traced_fitted"), APPROX: None}
+CAPS = {"osl": formulas.ALL_CLOSURES, "native": formulas.NATIVE_CLOSURES}
 EXACT_MODE_TOLERANCE = tolerance("exact_mode")
 
 # The metal of the conductor cases.
@@ -56,33 +63,40 @@ class Case:
     model: str
     params: dict = field(default_factory=dict)
     variant: str = "default"
-    status: dict = field(default_factory=dict)  # blender (major, minor) -> status; key None = any
     fresnel_sweep: bool = False
 
     @property
     def id(self) -> str:
         return f"{self.model}[{self.variant}]"
 
-    def path_traced_status(self, blender_version=(5, 2)) -> str:
-        """``"exact"``, ``"near"`` or ``"approx"`` for this Blender version."""
-        for key, value in self.status.items():
-            if key is not None and tuple(blender_version[:2]) < key:
-                return value
-        return self.status[None]
+    @property
+    def enums(self) -> dict:
+        """The structural choices of the case's group (preset values filled in)."""
+        enums = {k: v for k, v in self.params.items()
+                 if k in {p.name for p in variants.variant_params(self.model)}}
+        if "alpha_x" in self.params:
+            enums["width_mode"] = "alpha_xy"
+        elif "alpha" in self.params:
+            enums["width_mode"] = "alpha"
+        _model, full = variants.resolve_variant(self.model, enums)
+        return {k: v for k, v in full.items() if k != "backend"}
 
-    def path_traced_tolerance(self, blender_version=(5, 2)):
-        return PATH_TRACED_TOLERANCE[self.path_traced_status(blender_version)]
+    def path_traced_status(self, blender_version=(5, 2), backend="osl") -> str:
+        """``"exact"``, ``"near"``, ``"fitted"`` or ``"approx"`` for this
+        Blender version and backend (``"osl"``, or ``"native"`` nodes)."""
+        model, _fixed, _defaults = catalogue.resolve(self.model)
+        enums = self.enums
+        status = formulas.FORMULAS[model.id].fidelity(enums, CAPS[backend])
+        # 4.5's conductor closure is an older approximation; the native nodes
+        # also carry a dielectric's Fresnel through it (k = 0)
+        through_conductor = enums.get("fresnel") == "conductor" or (
+            backend == "native" and enums.get("fresnel") == "dielectric")
+        if through_conductor and tuple(blender_version[:2]) < (5, 2) and status in (EXACT, NEAR):
+            return APPROX
+        return status
 
-
-def microfacet_status(distribution, shadowing, fresnel="none"):
-    """Path-traced status of a microfacet variant.  A dict: ``{None: status}``
-    or, for the conductor, ``{(5, 2): status before 5.2, None: from 5.2}``."""
-    if shadowing != "smith_correlated" or distribution not in ("trowbridge_reitz", "beckmann"):
-        return {None: APPROX}
-    base = EXACT if distribution == "trowbridge_reitz" else NEAR
-    if fresnel == "conductor":
-        return {(5, 2): APPROX, None: base}
-    return {None: base}
+    def path_traced_tolerance(self, blender_version=(5, 2), backend="osl"):
+        return PATH_TRACED_TOLERANCE[self.path_traced_status(blender_version, backend)]
 
 
 def _resolved(model):
@@ -100,16 +114,13 @@ def build_cases():
     for mid in catalogue.MODELS:
         if mid == "microfacet":
             v = _resolved(mid)
-            status = microfacet_status(v["distribution"], v["shadowing"], v["fresnel"])
             variant = f"default {v['distribution']}/{v['shadowing']}"
-        elif mid in ("lambert", "phong"):
-            status, variant = {None: EXACT}, "default"
         else:
-            status, variant = {None: APPROX}, "default"
-        cases.append(Case(mid, {}, variant, status))
+            variant = "default"
+        cases.append(Case(mid, {}, variant))
     # Phong's and Blinn-Phong's other normalisation
-    cases.append(Case("phong", {"normalization": "energy"}, "energy", {None: EXACT}))
-    cases.append(Case("blinn_phong", {"normalization": "energy"}, "energy", {None: APPROX}))
+    cases.append(Case("phong", {"normalization": "energy"}, "energy"))
+    cases.append(Case("blinn_phong", {"normalization": "energy"}, "energy"))
     # microfacet: every distribution x shadowing (the 1967 bracket: Beckmann only)
     beta = 25.0 * DEG  # wide enough that shadowing and its variants matter
     for dist in catalogue.DISTRIBUTIONS:
@@ -117,30 +128,25 @@ def build_cases():
             if sh == "smith_1967" and dist != "beckmann":
                 continue
             cases.append(Case("microfacet", {"distribution": dist, "shadowing": sh, "beta": beta},
-                              f"{dist}/{sh}", microfacet_status(dist, sh)))
+                              f"{dist}/{sh}"))
     # Fresnel, on the exact TR + correlated base (theta_d sweep)
     n, k = catalogue.METALS[METAL]
     tr = {"distribution": "trowbridge_reitz", "shadowing": "smith_correlated", "alpha": 0.3}
     cases.append(Case("microfacet", dict(tr, fresnel="dielectric", ior=1.5),
-                      "trowbridge_reitz/smith_correlated/dielectric 1.5",
-                      microfacet_status("trowbridge_reitz", "smith_correlated", "dielectric"),
-                      fresnel_sweep=True))
+                      "trowbridge_reitz/smith_correlated/dielectric 1.5", fresnel_sweep=True))
     cases.append(Case("microfacet", dict(tr, fresnel="conductor", ior=n, k=k),
-                      f"trowbridge_reitz/smith_correlated/conductor {METAL}",
-                      microfacet_status("trowbridge_reitz", "smith_correlated", "conductor"),
-                      fresnel_sweep=True))
+                      f"trowbridge_reitz/smith_correlated/conductor {METAL}", fresnel_sweep=True))
     cases.append(Case("microfacet", {"distribution": "beckmann", "shadowing": "smith",
                                      "fresnel": "conductor", "ior": n, "k": k, "beta": beta},
-                      f"beckmann/smith/conductor {METAL}", {None: APPROX}, fresnel_sweep=True))
+                      f"beckmann/smith/conductor {METAL}", fresnel_sweep=True))
     # anisotropic native widths
     for dist in ("trowbridge_reitz", "beckmann"):
         cases.append(Case("microfacet", {"distribution": dist, "shadowing": "smith_correlated",
                                          "alpha_x": 0.15, "alpha_y": 0.45},
-                          f"{dist}/smith_correlated/aniso 0.15x0.45",
-                          microfacet_status(dist, "smith_correlated")))
+                          f"{dist}/smith_correlated/aniso 0.15x0.45"))
     # presets (their default Fresnel is dielectric: sweep theta_d)
     for pid in catalogue.PRESETS:
-        cases.append(Case(pid, {}, "preset", {None: APPROX}, fresnel_sweep=True))
+        cases.append(Case(pid, {}, "preset", fresnel_sweep=True))
     ids = [c.id for c in cases]
     assert len(ids) == len(set(ids)), "duplicate case ids"
     return cases

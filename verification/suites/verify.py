@@ -166,6 +166,8 @@ def _render_and_compare(g, expected, keep_images):
         img = g.render()
     stats = gonio.compare(img, expected, g.mask)
     entry = {"light_dir": [float(x) for x in g.light_dir],
+             "finite": bool(np.isfinite(img).all()),
+             "lit": bool(np.any(img[g.mask] > 0)),
              "max_rel_error": stats["max_rel_error"], "rms_rel_error": stats["rms_rel_error"],
              "n_pixels": stats["n_pixels"], "worst": stats["worst"],
              "max_abs_over_peak": stats["max_abs_error"] / stats["peak"] if stats["peak"] > 0
@@ -180,18 +182,40 @@ def _render_and_compare(g, expected, keep_images):
 # --------------------------------------------------------------------------
 # the checks
 
+BACKENDS = ("osl", "svm", "eevee")
+
+
+def use_backend(scene, backend, api):
+    """Set ``scene`` up so that an 'auto' node renders with ``backend``:
+    ``"osl"`` (Cycles on the CPU, OSL on), ``"svm"`` (Cycles, OSL off: the
+    kernel code of the GPU devices) or ``"eevee"``."""
+    if backend == "osl":
+        api.enable_osl(scene)
+    elif backend == "svm":
+        scene.render.engine = 'CYCLES'
+        scene.cycles.device = 'CPU'
+        scene.cycles.shading_system = False
+    elif backend == "eevee":
+        common.configure_eevee(scene, samples=1)
+    else:
+        raise ValueError(f"backend must be one of {BACKENDS}, not {backend!r}")
+
+
 def run_case(case, mode, *, resolution=96, light_dirs=None, api, theta_d=None,
-             keep_images=True, name=None):
+             keep_images=True, name=None, backend="osl", group_backend="auto"):
     """Render ``case`` (a :class:`.cases.Case`) in ``mode``
     (``"exact"`` or ``"path_traced"``) on the gonio scene for each light
-    direction, compare with ``gonio.reference`` (addon.reference on the
-    scene's known geometry) and return the result dict."""
+    direction, with the material's node on backend 'auto' and the scene set
+    up for ``backend`` (:func:`use_backend`), compare with
+    ``gonio.reference`` (addon.reference on the scene's known geometry) and
+    return the result dict.  ``group_backend``: the node's own backend
+    setting ('auto' unless a test forces one)."""
     if mode not in ("exact", "path_traced"):
         raise ValueError(f"mode must be 'exact' or 'path_traced', not {mode!r}")
     t0 = time.perf_counter()
     version = blender_version()
     mat = new_material(name or f"rm_{case.id}_{mode}")
-    node = api.add_model(mat, case.model, mode=mode, **case.params)
+    node = api.add_model(mat, case.model, mode=mode, backend=group_backend, **case.params)
     per_light = []
     try:
         for ld in case_lights(case, light_dirs, theta_d):
@@ -200,7 +224,7 @@ def run_case(case, mode, *, resolution=96, light_dirs=None, api, theta_d=None,
             g = gonio.build_gonio_scene(mat, light_dir=ld, resolution=resolution,
                                         name=f"gonio_{mode}")
             try:
-                api.enable_osl(g.scene)
+                use_backend(g.scene, backend, api)
                 expected = g.reference(case.model, **case.params)
                 per_light.append(_render_and_compare(g, expected, keep_images))
             finally:
@@ -209,19 +233,28 @@ def run_case(case, mode, *, resolution=96, light_dirs=None, api, theta_d=None,
         remove_material(mat)
     mx, rms, n = _aggregate(per_light)
     peak_rel = max(p["max_abs_over_peak"] for p in per_light)
+    metric = "max_rel_error"
     if mode == "exact":
-        status, tol = "exact", EXACT_TOL
+        status, tol, reason = "exact", EXACT_TOL, "exact_mode"
+        if backend == "eevee":
+            metric, tol, reason = "max_abs_over_peak", tolerance("eevee_exact"), "eevee_exact"
     else:
-        status = case.path_traced_status(version)
+        status = case.path_traced_status(version, "osl" if backend == "osl" else "native")
         tol = cases_mod.PATH_TRACED_TOLERANCE[status]
-    if mode == "exact":
-        reason = "exact_mode"
-    else:
-        reason = {"exact": "path_traced_exact", "near": "path_traced_near"}.get(status, "")
+        reason = {"exact": "path_traced_exact", "near": "path_traced_near",
+                  "fitted": "path_traced_fitted"}.get(status, "")
+        if status == "fitted":
+            metric = "max_abs_over_peak"
+        if backend == "eevee":  # EEVEE's closures are its own: lit and finite is the claim
+            tol, reason = None, ""
+    measured = mx if metric == "max_rel_error" else peak_rel
     return _as_check({
         "id": case.id, "model": case.model, "variant": case.variant, "mode": mode,
-        "status": status, "max_rel_error": mx, "rms_rel_error": rms, "tolerance": tol,
-        "pass": _verdict(mx, tol), "max_abs_over_peak": peak_rel, "n_pixels": n,
+        "backend": backend, "status": status, "max_rel_error": mx, "rms_rel_error": rms,
+        "tolerance": tol, "metric": metric,
+        "pass": _verdict(measured, tol), "max_abs_over_peak": peak_rel, "n_pixels": n,
+        "finite": all(p.get("finite", True) for p in per_light),
+        "lit": all(p.get("lit", True) for p in per_light),
         "resolution": resolution,
         "params": _jsonable(case.params), "blender": ".".join(map(str, version)),
     }, per_light, reason, time.perf_counter() - t0)
@@ -284,6 +317,7 @@ def run_oracle(distribution, alpha, *, resolution=96, light_dirs=None, api, keep
                    f"r={math.sqrt(alpha):.4g}",
         "mode": "oracle", "status": "exact" if native == "GGX" else "near",
         "max_rel_error": mx, "rms_rel_error": rms, "tolerance": tol, "pass": _verdict(mx, tol),
+        "max_abs_over_peak": max(p["max_abs_over_peak"] for p in per_light),
         "native_vs_reference_max_rel_error": max(vs_ref), "n_pixels": n,
         "resolution": resolution, "params": params, "blender": ".".join(map(str, blender_version())),
     }, per_light, "oracle_ggx" if native == "GGX" else "oracle_beckmann", time.perf_counter() - t0)
@@ -366,12 +400,18 @@ def _as_check(values, per_light, tolerance_name, seconds):
         expected = f"<= {values['tolerance']:.4f} (1 + MC margin)"
     else:
         measured = (f"max rel error {values['max_rel_error']:.2e}, rms "
-                    f"{values['rms_rel_error']:.2e}")
+                    f"{values['rms_rel_error']:.2e}, max |diff|/peak "
+                    f"{values['max_abs_over_peak']:.2e}")
         tol = values["tolerance"]
-        expected = f"<= {tol:g}" if tol is not None else "measured (no closure is the model)"
+        what = {"max_rel_error": "rel error", "max_abs_over_peak": "|diff|/peak"}.get(
+            values.get("metric"), "rel error")
+        expected = f"{what} <= {tol:g}" if tol is not None else \
+            "measured (no closure is the model)"
     values["lights"] = [{k: _jsonable(v) for k, v in p.items() if not isinstance(v, np.ndarray)}
                         for p in per_light if "light_dir" in p]
-    return Check(name=f"{values['id']} {values['mode']}", passed=passed, measured=measured,
+    backend = values.get("backend")
+    name = f"{values['id']} {values['mode']}" + (f" {backend}" if backend not in (None, "osl") else "")
+    return Check(name=name, passed=passed, measured=measured,
                  expected=expected, group=values["mode"],
                  tolerance=TOLERANCES[tolerance_name].reason if tolerance_name else "",
                  values=values, images={"lights": per_light}, seconds=seconds)

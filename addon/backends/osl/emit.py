@@ -110,7 +110,7 @@ class _Emitter:
 
     def inline(self, node) -> bool:
         """Single-use nodes are written into their user's expression."""
-        return (node.op not in ("choose", "closure", "closure_sum")
+        return (node.op not in ("choose", "closure", "closure_sum", "table")
                 and not (node.op == "select" and node.kind == "c")
                 and self.uses.get(id(node), 0) == 1 and id(node) not in self._root_ids)
 
@@ -139,6 +139,8 @@ class _Emitter:
         if op == "clamp_input":
             lo, hi = n.data
             return f"rm_clamp({a[0]}, {number(lo)}, {number(hi)})"
+        if op == "table":
+            return f"rm_table({self.names[('table', id(n))]}, {a[0]})"
         if op == "vec":
             return f"vector({', '.join(a)})"
         if op == "comp":
@@ -180,6 +182,11 @@ class _Emitter:
             elif node.op == "select" and node.kind == "c":
                 self._select_closure(node, context, indent)
             elif not self.inline(node):
+                if node.op == "table":  # its knots as a constant array first
+                    arr = f"_k{len(self.names)}"
+                    self.names[("table", id(node))] = arr
+                    self.lines.append(f"{indent}float {arr}[{len(node.data)}] = "
+                                      f"{{{', '.join(number(x) for x in node.data)}}};")
                 var = f"_{len(self.names)}"
                 text = self.expr(node)
                 self.names[id(node)] = var

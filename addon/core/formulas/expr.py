@@ -18,6 +18,9 @@ node, which OSL and EEVEE are made to match):
 - ``gt``/``lt`` give 1.0 or 0.0, ``select(c, a, b)`` takes ``c`` in {0, 1};
 - ``clamp_input(x, lo, hi)`` maps NaN to ``lo`` (bad input renders like the
   range's limit), ``finite(x)`` is 1 unless ``x`` is NaN or infinite;
+- ``table(values, t)``: linear interpolation between ``values`` at evenly
+  spaced knots over t in [0, 1] (t clamped): an OSL constant array, a Float
+  Curve node in native graphs (its 256-entry table);
 - ``choose(enum, branches)`` picks a branch by a structural parameter: the
   native backend knows the variant and builds only its branch; the OSL
   backend receives the enum as an ``int`` and emits an ``if`` chain that
@@ -428,6 +431,23 @@ def clamp_input(x, lo, hi):
     if x.kind == "v":
         return vec(*(clamp_input(x[i], lo, hi) for i in range(3)))
     return _make("clamp_input", (x,), "f", (float(lo), float(hi)))
+
+
+def table(values, t):
+    """Linear interpolation between ``values`` (at least two) at the evenly
+    spaced knots 0, 1/(n-1), ..., 1, at ``t`` (clamped to [0, 1])."""
+    values = tuple(float(x) for x in values)
+    if len(values) < 2 or not all(math.isfinite(x) for x in values):
+        raise ValueError("table: at least two finite values")
+    if len(set(values)) == 1:
+        return const(values[0])
+    t = wrap(t)
+    ct = _c(t)
+    if ct is not None:
+        u = min(max(ct, 0.0), 1.0) * (len(values) - 1)
+        j = min(int(math.floor(u)), len(values) - 2)
+        return const(values[j] + (u - j) * (values[j + 1] - values[j]))
+    return _make("table", (t,), "f", values)
 
 
 def clamp(x, lo, hi):

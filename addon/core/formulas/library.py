@@ -253,14 +253,24 @@ def unit_or_zero(v):
     ok = E.finite(v[0]) * E.finite(v[1]) * E.finite(v[2])
     comps = [E.clamp_input(v[i], -big, big) * ok for i in range(3)]
     m = fmax(fmax(E.fabs(comps[0]), E.fabs(comps[1])), E.fabs(comps[2]))
-    p60, p68, p80 = 2.0 ** 60, 2.0 ** 68, 2.0 ** 80
-    u = E.vscale(E.vec(*comps), select(gt(m, p60), 1.0 / p68, 1.0))  # m < 2^128: now < 2^60
-    tiny = lt(m, 1.0 / p60)  # m >= 2^-149 (subnormal): at most two steps
-    u = E.vscale(u, select(tiny, p80, 1.0))
-    u = E.vscale(u, select(tiny * lt(m * p80, 1.0 / p60), p80, 1.0))
-    return E.normalize(u)
+    # one factor, so no compiler can fold two scalings into an infinite one
+    # (Mesa's did, for the zero vector: 0 * (2^80 2^80) is NaN)
+    large = select(gt(m, 2.0 ** 60), 2.0 ** -68, 1.0)  # m < 2^128: now < 2^60
+    tiny = select(lt(m, 2.0 ** -100), 2.0 ** 126, 2.0 ** 80)  # m >= 2^-149 (subnormal)
+    return E.normalize(E.vscale(E.vec(*comps), select(lt(m, 2.0 ** -60), tiny, large)))
 
 
 def is_zero(v):
     """1 where the vector is exactly zero."""
     return 1.0 - gt(E.dot(v, v), 0.0)
+
+
+def Lambda_beckmann_rational(wx, wy, wz, ax, ay):
+    """Cycles' Beckmann Lambda (the closure's, not the model's): Walter
+    2007's rational approximation below Heitz 2014, eq. 69; 0 where
+    a = 1/(alpha tan theta) >= 1.6."""
+    x, y = wx * ax, wy * ay
+    t2 = div(x * x + y * y, wz * wz)
+    a = div(1.0, sqrt(t2))
+    lam = div((0.396 * a - 1.259) * a + 1.0, (2.181 * a + 3.535) * a)
+    return select(lt(t2, 0.39), 0.0, lam)

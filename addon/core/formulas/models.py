@@ -27,6 +27,8 @@ from . import expr as E
 from . import library as L
 from .expr import choose, closure, closure_sum, const, div, fmax, gt, select, vec
 from .shading import fibre_tangent, frame, local
+from .shading import light as shading_light
+from .shading import lights as shading_lights
 
 PI = math.pi
 
@@ -40,9 +42,10 @@ class Shading:
     b: E.Expr
     wo: E.Expr
     tf: E.Expr | None = None
+    caps: frozenset = None  # the closures of the backend (ALL_CLOSURES when None)
 
 
-def shading(model_id: str, enums: dict | None = None) -> Shading:
+def shading(model_id: str, enums: dict | None = None, caps=None) -> Shading:
     """The shading frame and view of a model's variant (the tangent only
     where the variant uses one; ``enums`` None: any variant, as for the OSL
     shader that serves them all)."""
@@ -50,7 +53,7 @@ def shading(model_id: str, enums: dict | None = None) -> Shading:
     uses = FORMULAS[model_id].uses_tangent(enums)
     n, t, b = frame(uses_tangent=uses)
     tf = fibre_tangent(n, t) if model.kind == "fibre" else None
-    return Shading(n, t, b, E.geometry("I"), tf)
+    return Shading(n, t, b, E.geometry("I"), tf, caps)
 
 
 class Values:
@@ -59,10 +62,10 @@ class Values:
     structural parameter to its choice (native: the variant is known) or is
     missing it (OSL: the shader receives the int code)."""
 
-    def __init__(self, model_id: str, enums: dict | None = None, known: bool = True):
+    def __init__(self, model_id: str, enums: dict | None = None, known=True):
         self.model = catalogue.MODELS[model_id]
         self.enums = dict(enums or {})
-        self.known = known
+        self.known = known  # True, False, or the set of names whose choice is known
         self._cache = {}
 
     def p(self, name: str) -> E.Expr:
@@ -74,12 +77,31 @@ class Values:
         param = next((p for p in variants.variant_params(self.model.id) if p.name == name), None)
         if param is None:
             raise KeyError(f"{self.model.id} has no structural parameter {name!r}")
-        value = self.enums.get(name, param.default) if self.known else None
+        known = self.known if isinstance(self.known, bool) else name in self.known
+        value = self.enums.get(name, param.default) if known else None
         return E.Enum(name, param.choices, value)
 
 
 def _upper(ci, co):
     return gt(ci, 0.0) * gt(co, 0.0)
+
+
+# The closures a backend offers (expr.closure names).  Cycles' OSL has them
+# all; the native nodes have no Phong lobe (phong_ramp).
+ALL_CLOSURES = frozenset({"diffuse", "phong_ramp", "microfacet", "dielectric", "conductor",
+                          "hair_reflection", "ashikhmin_shirley"})
+# What native nodes offer: no Phong lobe, and dielectric Fresnel only as a
+# conductor of extinction 0 (the Metallic BSDF, one closure for a coloured IOR)
+NATIVE_CLOSURES = ALL_CLOSURES - {"phong_ramp", "dielectric"}
+
+
+def per_choice(enum, build):
+    """``choose`` whose branches are built from the choice's name."""
+    return choose(enum, {c: (lambda c=c: build(c)) for c in enum.choices})
+
+
+def _cos_o(s):
+    return fmax(E.dot(s.n, s.wo), 0.0)
 
 
 class Formula:
@@ -97,7 +119,15 @@ class Formula:
         raise NotImplementedError
 
     def closure(self, v: Values, s: Shading) -> E.Expr:
+        """The path-traced BSDF from the closures the backend offers (``s.caps``)."""
         raise NotImplementedError
+
+    def fidelity(self, enums: dict, caps=ALL_CLOSURES) -> str:
+        """How the path-traced output matches the model: 'exact' (a closure is
+        the model), 'near' (a closure within a documented difference),
+        'fitted' (a fitted mixture whose error is measured and bounded),
+        'approx' (the best mixture or lobe, measured, no bound)."""
+        return "approx"
 
 
 class Lambert(Formula):
@@ -112,6 +142,9 @@ class Lambert(Formula):
     def closure(self, v, s):
         # Exact: diffuse() is Lambert.
         return closure("diffuse", v.p("albedo"), s.n)
+
+    def fidelity(self, enums, caps=ALL_CLOSURES):
+        return "exact"
 
 
 class Phong(Formula):
@@ -135,11 +168,18 @@ class Phong(Formula):
                 "cos_theta_o": co}
 
     def closure(self, v, s):
-        # Exact: phong_ramp() is (s+2)/(2 pi) cos^s (Lafortune's normalisation);
-        # a constant weight gives the lecture's form or the (s+1)/(2 pi) one.
         se = v.p("exponent")
-        weight = v.p("ks") * (self._norm(v, se) * div(2.0 * PI, se + 2.0))
-        return closure("phong_ramp", weight, s.n, se)
+        if "phong_ramp" in (s.caps or ALL_CLOSURES):
+            # Exact: phong_ramp() is (s+2)/(2 pi) cos^s (Lafortune's normalisation);
+            # a constant weight gives the lecture's form or the (s+1)/(2 pi) one.
+            weight = v.p("ks") * (self._norm(v, se) * div(2.0 * PI, se + 2.0))
+            return closure("phong_ramp", weight, s.n, se)
+        # Fitted: no Phong lobe in the backend (native nodes); a mixture fitted
+        # to the lecture's form, times the normalisation.
+        return _fitted_lobes("phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
+
+    def fidelity(self, enums, caps=ALL_CLOSURES):
+        return "exact" if "phong_ramp" in caps else _fit_status("phong")
 
 
 class BlinnPhong(Formula):
@@ -164,16 +204,40 @@ class BlinnPhong(Formula):
                 "cos_theta_o": co}
 
     def closure(self, v, s):
-        # APPROXIMATION: Cycles has no Blinn lobe.  GGX at the same half-angle
-        # beta (cos^s beta = 1/2), weighted to agree at normal incidence.
+        # Fitted: Cycles has no Blinn-Phong lobe; the fitted mixture (an
+        # Ashikhmin-Shirley lobe, whose (N.H)^n is Blinn's, with GGX, Beckmann
+        # and diffuse members) of the lecture's form, times the normalisation.
         se = v.p("exponent")
-        beta = select(gt(se, 0.0), L.acos_refined(E.exp(div(-math.log(2.0), se))),
-                      catalogue.BETA_MAX)
-        beta = E.clamp(beta, catalogue.BETA_MIN, catalogue.BETA_MAX)
-        a = L.tr_alpha_from_beta(beta)
-        # GGX at N = L = E: D(0) G / 4 = 1 / (4 pi a^2); Blinn-Phong there: norm.
-        weight = v.p("ks") * (self._norm(v, se) * 4.0 * PI * a * a)
-        return closure("microfacet", weight, s.n, s.t, a, a, distribution="ggx")
+        return _fitted_lobes("blinn_phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
+
+    def fidelity(self, enums, caps=ALL_CLOSURES):
+        return _fit_status("blinn_phong")
+
+
+def _fit_status(key):
+    from . import mixtures
+    if key in mixtures.NOT_FITTED:  # the single lobe stands in: never called fitted
+        return "approx"
+    return "fitted" if mixtures.measured(key)["max_abs_over_peak_70"] <= FIT_BOUND else "approx"
+
+
+# A fitted mixture is "fitted" (bounded) when its measured largest error over
+# the hemisphere (views and lights to 70 deg) is at most this fraction of the
+# peak; else "approx" (measured, no bound).
+FIT_BOUND = 0.025
+
+
+def _fitted_lobes(key, x, s, weight, member=None):
+    """A fitted mixture whose members are plain lobes (no Fresnel)."""
+    from . import mixtures
+
+    def plain(name, w, alpha):
+        if name == "diffuse":
+            return closure("diffuse", weight * w, s.n)
+        if name == "ashikhmin_shirley":
+            return closure("ashikhmin_shirley", weight * w, s.n, s.t, alpha, alpha)
+        return closure("microfacet", weight * w, s.n, s.t, alpha, alpha, distribution=name)
+    return mixtures.mixture(key, x, _cos_o(s), member or plain)
 
 
 class Microfacet(Formula):
@@ -272,25 +336,66 @@ class Microfacet(Formula):
         return L.Lambda_chebyshev_x(*w, L.beckmann_m_from_beta(beta), coefficients)
 
     def closure(self, v, s):
-        # Cycles' microfacet closures use height-correlated Smith and clamp
-        # alpha to [0, 1].  Exact: Trowbridge-Reitz + smith_correlated (any
-        # Fresnel in 5.2; dielectric or none in 4.5).  Beckmann +
-        # smith_correlated differs by Walter's rational Lambda (< 1 %).
-        # Everything else (Blinn and Gaussian as Beckmann at the same beta;
-        # separable Smith, V-groove, 1967 bracket, no shadowing; alpha > 1) is
-        # an APPROXIMATION.
-        dist, fr = v.enum("distribution"), v.enum("fresnel")
-        ax, ay = self.widths(v)
+        # Exact: Trowbridge-Reitz + smith_correlated is Cycles' GGX closure
+        # (any Fresnel in 5.2; none or dielectric in 4.5).  Near: Beckmann +
+        # smith_correlated, Cycles' Beckmann closure (Walter's rational Lambda,
+        # < 1 %).  Everything else: a mixture fitted offline
+        # (fitting/mixtures.py) over the view angle and the width, with the
+        # model's Fresnel on each microfacet member (exact at the half vector)
+        # and F(cos theta_o) on the diffuse one.
+        dist, sh, mode = v.enum("distribution"), v.enum("shadowing"), v.enum("width_mode")
         ks = v.p("ks")
+        cos_o = _cos_o(s)
 
-        def lobe(name):
-            return choose(fr, {
-                "none": lambda: closure("microfacet", ks, s.n, s.t, ax, ay, distribution=name),
-                "conductor": lambda: closure("conductor", ks, s.n, s.t, ax, ay, v.p("ior"),
-                                             v.p("k"), distribution=name),
-                "dielectric": lambda: self._dielectric(ks, s, ax, ay, v.p("ior"), name)})
-        return choose(dist, {"trowbridge_reitz": lambda: lobe("ggx"),
-                             "*": lambda: lobe("beckmann")})
+        def lobe(name, weight, ax, ay):
+            return self._fresnel_lobe(v, s, name, weight, ax, ay)
+
+        def exact(name):
+            ax, ay = self.widths(v)
+            return lobe(name, ks, ax, ay)
+
+        def fitted(d, shadowing):
+            if shadowing == "smith_1967" and d != "beckmann":
+                shadowing = "smith"  # the bracket form is defined for Beckmann only
+            if d in ("blinn", "gaussian"):
+                return self._fitted(v, s, f"microfacet/{d}/{shadowing}/beta", v.p("beta"),
+                                    None, cos_o)
+
+            def native(aniso):
+                key = f"microfacet/{d}/{shadowing}/alpha"
+                if not aniso:
+                    return self._fitted(v, s, key, E.log(v.p("alpha")), None, cos_o)
+                ax, ay = v.p("alpha_x"), v.p("alpha_y")
+                return self._fitted(v, s, key, 0.5 * (E.log(ax) + E.log(ay)),
+                                    (E.sqrt(div(ax, ay)), E.sqrt(div(ay, ax))), cos_o)
+            return choose(mode, {
+                "beta": lambda: self._fitted(v, s, f"microfacet/{d}/{shadowing}/beta",
+                                             v.p("beta"), None, cos_o),
+                "alpha": lambda: native(False), "alpha_xy": lambda: native(True)})
+
+        def for_distribution(d):
+            def for_shadowing(shadowing):
+                if shadowing == "smith_correlated" and d == "trowbridge_reitz":
+                    return exact("ggx")
+                if shadowing == "smith_correlated" and d == "beckmann":
+                    return exact("beckmann")
+                return fitted(d, shadowing)
+            return per_choice(sh, for_shadowing)
+        return per_choice(dist, for_distribution)
+
+    def _fresnel_lobe(self, v, s, name, weight, ax, ay):
+        """One microfacet closure carrying the model's Fresnel (exact at the
+        facet normal: Cycles evaluates F at the half vector)."""
+        fr = v.enum("fresnel")
+        return choose(fr, {
+            "none": lambda: closure("microfacet", weight, s.n, s.t, ax, ay, distribution=name),
+            "conductor": lambda: closure("conductor", weight, s.n, s.t, ax, ay, v.p("ior"),
+                                         v.p("k"), distribution=name),
+            "dielectric": lambda: self._dielectric(weight, s, ax, ay, v.p("ior"), name)
+            if "dielectric" in (s.caps or ALL_CLOSURES) else
+            # without dielectric_bsdf: a conductor of extinction 0 is the same Fresnel
+            closure("conductor", weight, s.n, s.t, ax, ay, v.p("ior"), vec(0.0, 0.0, 0.0),
+                    distribution=name)})
 
     @staticmethod
     def _dielectric(weight, s, ax, ay, ior, name):
@@ -305,6 +410,39 @@ class Microfacet(Formula):
             * E.ge(ior[2], ior[1])
         return select(same, one, per)
 
+    def _fitted(self, v, s, key, x, aniso, cos_o):
+        from . import mixtures
+
+        ks = v.p("ks")
+        fr = v.enum("fresnel")
+
+        def member(name, w, alpha):
+            if name == "diffuse":
+                # F at the view: the members' Fresnel is at the half vector,
+                # which a diffuse lobe has not
+                c = E.clamp(cos_o, 0.0, 1.0)
+                F = choose(fr, {
+                    "none": lambda: vec(1.0, 1.0, 1.0),
+                    "dielectric": lambda: L.per_channel(L.F_dielectric, c, v.p("ior")),
+                    "conductor": lambda: L.per_channel(L.F_conductor, c, v.p("ior"), v.p("k"))})
+                return closure("diffuse", ks * F * w, s.n)
+            ax, ay = (alpha, alpha) if aniso is None else (alpha * aniso[0], alpha * aniso[1])
+            return self._fresnel_lobe(v, s, name, ks * w, ax, ay)
+        return mixtures.mixture(key, x, cos_o, member)
+
+    def fidelity(self, enums, caps=ALL_CLOSURES):
+        dist, sh = enums.get("distribution"), enums.get("shadowing")
+        if sh == "smith_correlated" and dist == "trowbridge_reitz":
+            return "exact"
+        if sh == "smith_correlated" and dist == "beckmann":
+            return "near"
+        if sh == "smith_1967" and dist != "beckmann":
+            sh = "smith"
+        mode = enums.get("width_mode", "beta")
+        native = dist in ("trowbridge_reitz", "beckmann") and mode != "beta"
+        key = f"microfacet/{dist}/{sh}/{'alpha' if native else 'beta'}"
+        status = _fit_status(key)
+        return "approx" if mode == "alpha_xy" else status
 
 class Ward(Formula):
     """Ward (1992) anisotropic: ks exp(-tan^2(h)(cos^2 phi/ax^2 + sin^2 phi/ay^2))
@@ -328,10 +466,18 @@ class Ward(Formula):
         return {"value": value, "Lobe": lobe, "cos_theta_i": ci, "cos_theta_o": co}
 
     def closure(self, v, s):
-        # APPROXIMATION: ward() is declared but renders black in Cycles; the
-        # anisotropic Beckmann microfacet with the same (ax, ay) stands in.
-        return closure("microfacet", v.p("ks"), s.n, s.t, E.fmin(v.p("alpha_x"), 1.0),
-                       E.fmin(v.p("alpha_y"), 1.0), distribution="beckmann")
+        # APPROXIMATION: ward() is declared but renders black in Cycles.  The
+        # anisotropic Beckmann closure with the same (ax, ay) and a weight of
+        # the view: Ward / closure = cos^4(theta_h) sqrt(ci co) / G2, which at
+        # the mirror (ci = co, theta_h = 0) is co (1 + 2 Lambda(co)), Lambda
+        # the closure's (Walter's rational form, Cycles').  What remains
+        # depends on the light direction.
+        ax, ay = E.fmin(v.p("alpha_x"), 1.0), E.fmin(v.p("alpha_y"), 1.0)
+        lo = local(s.wo, s.t, s.b, s.n)
+        co = fmax(lo[2], 0.0)
+        weight = co * (1.0 + 2.0 * L.Lambda_beckmann_rational(*lo, ax, ay))
+        return closure("microfacet", v.p("ks") * weight, s.n, s.t, ax, ay,
+                       distribution="beckmann")
 
 
 class KajiyaKay(Formula):
@@ -364,17 +510,28 @@ FORMULAS = {f.model_id: f for f in (Lambert(), Phong(), BlinnPhong(), Microfacet
                                     KajiyaKay())}
 
 
-def exact(model_id: str, v: Values, s: Shading, lights) -> dict:
-    """The exact outputs for ``lights`` (:class:`~.shading.Light`): Color =
-    the sum over the lights of E times the value, the terms of the first."""
+def exact(model_id: str, v: Values, s: Shading, lights=None) -> dict:
+    """The exact outputs: Color = the sum over the lights of E times the
+    value, the terms for light 1.  ``lights``: a list of
+    :class:`~.shading.Light`, or None for the variant's Light inputs (the
+    structural ``lights`` count; where it is not known, as in the OSL
+    shader, a choice between the sums)."""
     formula = FORMULAS[model_id]
-    out = None
+    if lights is None:
+        enum = v.enum("lights")
+        if enum.value is not None:  # known: only its lights
+            lights = shading_lights(int(enum.value))
+        else:  # every light, gated by the count (OSL folds the gates and the rays)
+            lights = [shading_light(k, active=choose(enum, {
+                c: const(1.0 if int(c) >= k else 0.0) for c in enum.choices}))
+                for k in range(1, max(int(c) for c in enum.choices) + 1)]
     color = vec(0.0, 0.0, 0.0)
+    first = None
     for light in lights:
         ev = formula.evaluate(v, s, light.wi)
         color = color + light.E * ev["value"]
-        if out is None:
-            out = ev
+        if first is None:
+            first = ev
     result = {"Color": color}
-    result.update({name: out[name] for name, _kind in formula.terms})
+    result.update({name: first[name] for name, _kind in formula.terms})
     return result

@@ -78,11 +78,17 @@ class Light:
     E: E.Expr
 
 
-def light(suffix: str = "", *, n=None) -> Light:
-    """The light of the Light inputs (``suffix`` names a further light's
-    inputs): a sun along Light Direction or a point at Light Position, of
+def light(k: int = 1, active=None) -> Light:
+    """Light ``k`` of the Light inputs (light 1: ``light_strength``, ...;
+    light k > 1: ``light_strength_<k>``, ...): a sun along Light Direction,
+    or a point at Light Position, or a spot (a point whose cone is Spot
+    Size around the reversed Light Direction, its edge smoothed as Cycles
+    does: smoothstep((cos - cos(size/2)) / ((1 - cos(size/2)) blend))), of
     strength Light Strength and colour Light Color, shadowed by a ray toward
-    it unless Shadows is 0."""
+    it unless Shadows is 0.  ``active`` (0 or 1, None: 1) switches the
+    light, its shadow ray included, off."""
+    suffix = "" if k == 1 else f"_{k}"
+
     def param(name):
         return clamped(COMMON[name], input_(name + suffix, "v" if COMMON[name].kind == "color"
                                             else "f"))
@@ -97,11 +103,27 @@ def light(suffix: str = "", *, n=None) -> Light:
     d = lp - P
     d2 = fmax(dot(d, d), 1e-12)
     dist = sqrt(d2)
-    sun = unit_or_zero(_vinput("light_direction" + suffix))
-    sun = select(is_zero(sun), vec(0.0, 0.0, 1.0), sun)
-    wi = select(point, d * E.div(1.0, dist), sun)
-    strength = select(point, E.div(strength, d2), strength)
+    axis = unit_or_zero(_vinput("light_direction" + suffix))
+    axis = select(is_zero(axis), vec(0.0, 0.0, 1.0), axis)
+    wi = select(point, d * E.div(1.0, dist), axis)
+    # the spot's cone (Cycles' spot_light_attenuation for an unscaled lamp)
+    cos_half = E.cos(0.5 * param("spot_size"))
+    width = (1.0 - cos_half) * param("spot_blend")
+    x = dot(wi, axis)
+    f = select(gt(width, 0.0), E.clamp((x - cos_half) * E.div(1.0, width), 0.0, 1.0),
+               gt(x, cos_half))
+    cone = f * f * (3.0 - 2.0 * f)
+    spot = point * E.ge(param("spot"), 0.5)
+    strength = select(point, E.div(strength, d2) * select(spot, cone, 1.0), strength)
     maxdist = select(point, dist, 1e30)
     shadows = param("shadows")
-    visible = 1.0 - shadows * E.occluded(P, wi, maxdist, gt(shadows, 0.0))
+    enabled = gt(shadows, 0.0) if active is None else gt(shadows, 0.0) * active
+    visible = 1.0 - shadows * E.occluded(P, wi, maxdist, enabled)
+    if active is not None:
+        strength = strength * active
     return Light(wi, param("light_color") * (strength * visible))
+
+
+def lights(count: int) -> list:
+    """Lights 1 to ``count``."""
+    return [light(k) for k in range(1, count + 1)]

@@ -25,6 +25,16 @@ float rm_clamp(float x, float lo, float hi)
     return x;
 }
 
+// Linear interpolation between values at evenly spaced knots over [0, 1]
+float rm_table(float v[], float t)
+{
+    int last = arraylength(v) - 1;
+    float u = clamp(t, 0.0, 1.0) * last;
+    int j = min((int)floor(u), last - 1);
+    float f = u - j;
+    return v[j] + f * (v[j + 1] - v[j]);
+}
+
 float rm_finite(float x)
 {
     return (isnan(x) || isinf(x)) ? 0.0 : 1.0;

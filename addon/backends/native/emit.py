@@ -1,0 +1,322 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Native node graphs from expression graphs (:mod:`addon.core.formulas.expr`).
+
+:func:`plan` turns the graphs of some named outputs into a list of
+:class:`Node` records (a Blender node type, its properties, what feeds each
+input) that :mod:`.build` instantiates in a node tree.  Pure Python, no
+Blender: the plan is what the tests count and inspect.
+
+Every operation maps to Cycles' SVM and EEVEE's GPU nodes with the graphs'
+semantics (those of the Math node: safe division, square root, logarithm
+and power); the few that have no node are composed:
+
+- ``select(c, a, b)`` = a c + b (1 - c), exact for c in {0, 1} and finite
+  a, b (the formulas guard every value);
+- ``clamp_input(x, lo, hi)`` = min(max(x, lo), hi): Math MAXIMUM is fmaxf,
+  which maps NaN to the other operand, so NaN goes to ``lo`` as in OSL;
+- ``finite(x)`` = (x > -FLT_MAX) (x < FLT_MAX): a comparison with NaN is 0;
+- ``table(values, t)``: a Float Curve node whose points are the values with
+  vector handles (straight segments), sampled by Blender into a 256-entry
+  table: between the table's samples a knot's kink is cut by at most a
+  quarter of the change of slope times 1/255;
+- ``occluded``: the Raycast node (Blender 5.x) from the position lifted by
+  1e-4 along the true normal, to the side the ray leaves on (without it,
+  false self-hits on a quad's diagonal, and on the face itself for a light
+  behind it); in Blender 4.5, which has no Raycast node, nothing is
+  occluded;
+- closures: Diffuse, Glossy (GGX, Beckmann, Ashikhmin-Shirley; roughness
+  sqrt(alpha), anisotropy from the ratio), Hair (reflection) with their
+  colour as the weight; the Metallic BSDF (physical conductor) has no colour
+  input, so its weight is a Mix Shader, and a coloured weight takes one
+  closure per channel (the others get n = 1, k = 0, where F = 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from addon.core.formulas import expr as E
+
+FLT_MAX = 3.4028234663852886e38
+RAY_OFFSET = 1e-4
+
+
+@dataclass
+class Node:
+    """One node: ``inputs`` maps an input (index or name) to a source:
+    ``("const", value)``, ``("link", node id, output)``, ``("group", name)``
+    (an input of the graph) or ``("geometry", name)``."""
+    id: str
+    type: str
+    props: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
+    label: str = ""
+    depth: int = 0
+
+
+MATH = {"add": "ADD", "sub": "SUBTRACT", "mul": "MULTIPLY", "div": "DIVIDE", "pow": "POWER",
+        "min": "MINIMUM", "max": "MAXIMUM", "atan2": "ARCTAN2", "gt": "GREATER_THAN",
+        "lt": "LESS_THAN"}
+MATH1 = {"sqrt": "SQRT", "exp": "EXPONENT", "sin": "SINE", "cos": "COSINE", "tan": "TANGENT",
+         "atan": "ARCTANGENT", "abs": "ABSOLUTE", "floor": "FLOOR"}
+VMATH = {"vadd": "ADD", "vsub": "SUBTRACT", "vmul": "MULTIPLY", "vdiv": "DIVIDE"}
+GLOSSY = {"ggx": "GGX", "beckmann": "BECKMANN"}
+
+
+class Planner:
+    def __init__(self, raycast: bool = True):
+        self.raycast = raycast
+        self.nodes: list[Node] = []
+        self.memo: dict = {}
+        self.separate: dict = {}
+
+    # -- helpers ----------------------------------------------------------------
+    def add(self, type_, props=None, inputs=None, label="", depth=0):
+        node = Node(f"n{len(self.nodes)}", type_, dict(props or {}), dict(inputs or {}), label,
+                    depth)
+        self.nodes.append(node)
+        return node
+
+    def depth(self, *sources):
+        d = 0
+        for s in sources:
+            if s[0] == "link":
+                d = max(d, self._by_id[s[1]].depth + 1)
+        return d
+
+    def math(self, op, *srcs):
+        n = self.add("ShaderNodeMath", {"operation": op},
+                     {i: s for i, s in enumerate(srcs)}, depth=self.depth(*srcs))
+        self._by_id[n.id] = n
+        return ("link", n.id, 0)
+
+    def vmath(self, op, *srcs, scale=None):
+        inputs = {i: s for i, s in enumerate(srcs)}
+        if scale is not None:
+            inputs[3] = scale
+        n = self.add("ShaderNodeVectorMath", {"operation": op}, inputs,
+                     depth=self.depth(*srcs, *(() if scale is None else (scale,))))
+        self._by_id[n.id] = n
+        out = 1 if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else 0
+        return ("link", n.id, out)
+
+    def node(self, type_, props, inputs, out=0, label=""):
+        n = self.add(type_, props, inputs, label, depth=self.depth(*inputs.values()))
+        self._by_id[n.id] = n
+        return ("link", n.id, out)
+
+    # -- the graph ----------------------------------------------------------------
+    def run(self, outputs: dict) -> dict:
+        self._by_id = {}
+        refs = {}
+        for name, expr in outputs.items():
+            refs[name] = self.ref(expr)
+        return refs
+
+    def ref(self, e):
+        key = id(e)
+        if key in self.memo:
+            return self.memo[key]
+        for node in E.topological([e]):  # depth-first without recursion limits
+            if id(node) not in self.memo:
+                self.memo[id(node)] = self._emit(node)
+        return self.memo[key]
+
+    def _r(self, e):
+        return self.memo[id(e)]
+
+    def _emit(self, e):
+        op, a = e.op, e.args
+        if op == "const":
+            return ("const", e.data)
+        if op == "input":
+            name, source = e.data
+            return ("geometry", name) if source == "geometry" else ("group", name)
+        if op == "vec":
+            if all(x.op == "const" for x in a):
+                return ("const", tuple(x.data for x in a))
+            return self.node("ShaderNodeCombineXYZ", {}, {i: self._r(x) for i, x in enumerate(a)})
+        if op == "comp":
+            src = self._r(a[0])
+            if src[0] == "const":
+                return ("const", src[1][e.data])
+            key = src
+            if key not in self.separate:
+                self.separate[key] = self.node("ShaderNodeSeparateXYZ", {}, {0: src})
+            sep = self.separate[key]
+            return ("link", sep[1], e.data)
+        if op in MATH:
+            return self.math(MATH[op], *(self._r(x) for x in a))
+        if op in MATH1:
+            return self.math(MATH1[op], self._r(a[0]))
+        if op == "neg":
+            return self.math("MULTIPLY", self._r(a[0]), ("const", -1.0))
+        if op == "log":  # natural logarithm: base e (logf(e) rounds to 1 in float32)
+            return self.math("LOGARITHM", self._r(a[0]), ("const", 2.718281828459045))
+        if op == "select":
+            c, x, y = (self._r(v) for v in a)
+            notc = self.math("SUBTRACT", ("const", 1.0), c)
+            if e.kind == "v":
+                return self.vmath("ADD", self.vmath("SCALE", x, scale=c),
+                                  self.vmath("SCALE", y, scale=notc))
+            if e.kind == "c":
+                raise ValueError("a choice between closures has no native form: build one "
+                                 "branch (the variant is known)")
+            return self.math("MULTIPLY_ADD", y, notc, self.math("MULTIPLY", x, c))
+        if op == "clamp_input":
+            lo, hi = e.data
+            return self.math("MINIMUM", self.math("MAXIMUM", self._r(a[0]), ("const", lo)),
+                             ("const", hi))
+        if op == "table":
+            t = self.math("MINIMUM", self.math("MAXIMUM", self._r(a[0]), ("const", 0.0)),
+                          ("const", 1.0))
+            return self.node("ShaderNodeFloatCurve", {"curve": e.data},
+                             {"Factor": ("const", 1.0), "Value": t})
+        if op == "finite":
+            x = self._r(a[0])
+            return self.math("MULTIPLY", self.math("GREATER_THAN", x, ("const", -FLT_MAX)),
+                             self.math("LESS_THAN", x, ("const", FLT_MAX)))
+        if op in VMATH:
+            return self.vmath(VMATH[op], self._r(a[0]), self._r(a[1]))
+        if op == "vscale":
+            return self.vmath("SCALE", self._r(a[0]), scale=self._r(a[1]))
+        if op == "dot":
+            return self.vmath("DOT_PRODUCT", self._r(a[0]), self._r(a[1]))
+        if op == "cross":
+            return self.vmath("CROSS_PRODUCT", self._r(a[0]), self._r(a[1]))
+        if op == "length":
+            return self.vmath("LENGTH", self._r(a[0]))
+        if op == "normalize":
+            return self.vmath("NORMALIZE", self._r(a[0]))
+        if op == "occluded":
+            if not self.raycast:
+                return ("const", 0.0)
+            P, d, length, enabled = (self._r(x) for x in a)
+            # lifted off the surface on the light's side: a ray toward a
+            # light behind the surface (fibres are lit from there) must not
+            # hit its own face, which OSL's trace() skips
+            side = self.math("GREATER_THAN", self.vmath("DOT_PRODUCT", ("geometry", "Ng"), d),
+                             ("const", 0.0))
+            offset = self.math("MULTIPLY_ADD", side, ("const", 2.0 * RAY_OFFSET),
+                               ("const", -RAY_OFFSET))
+            start = self.vmath("MULTIPLY_ADD", ("geometry", "Ng"), self._splat(offset), P)
+            hit = self.node("ShaderNodeRaycast", {},
+                            {"Position": start, "Direction": d,
+                             "Length": self.math("MULTIPLY", length, enabled)}, out="Is Hit")
+            return hit
+        if op == "closure":
+            return self._closure(e)
+        if op == "closure_sum":
+            refs = [self._r(x) for x in a]
+            if not refs:
+                return None
+            acc = refs[0]
+            for r in refs[1:]:
+                acc = self.node("ShaderNodeAddShader", {}, {0: acc, 1: r})
+            return acc
+        if op == "choose":
+            raise ValueError("choose() reached the native backend: the variant must be known")
+        raise ValueError(f"no native form for {op!r}")
+
+    def _splat(self, f):
+        """A float as a vector (x, x, x)."""
+        return self.node("ShaderNodeCombineXYZ", {}, {0: f, 1: f, 2: f})
+
+    # -- closures -----------------------------------------------------------------
+    def _roughness(self, ax, ay):
+        """Cycles' Glossy: roughness r (alpha = r^2, isotropic alpha =
+        sqrt(ax ay)) and anisotropy a: ax = alpha (1 - a), ay = alpha/(1 - a)
+        for a > 0; ax = alpha/(1 + a), ay = alpha (1 + a) for a < 0."""
+        r = self.math("SQRT", self.math("SQRT", self.math("MULTIPLY", ax, ay)))
+        ratio = self.math("SQRT", self.math("DIVIDE", ax, ay))  # sqrt(ax/ay)
+        inv = self.math("SQRT", self.math("DIVIDE", ay, ax))
+        pos = self.math("SUBTRACT", ("const", 1.0), ratio)      # ax <= ay
+        neg = self.math("SUBTRACT", inv, ("const", 1.0))        # ax > ay
+        c = self.math("GREATER_THAN", ax, ay)
+        aniso = self.math("MULTIPLY_ADD", neg, c,
+                          self.math("MULTIPLY", pos, self.math("SUBTRACT", ("const", 1.0), c)))
+        return r, aniso
+
+    def _closure(self, e):
+        name, params = e.data
+        params = dict(params)
+        w = self._r(e.args[0])
+        args = [self._r(x) for x in e.args[1:]]
+        if name == "diffuse":
+            return self.node("ShaderNodeBsdfDiffuse", {}, {"Color": w, "Normal": args[0]})
+        if name in ("microfacet", "ashikhmin_shirley"):
+            n, t, ax, ay = args
+            r, aniso = self._roughness(ax, ay)
+            dist = "ASHIKHMIN_SHIRLEY" if name == "ashikhmin_shirley" else \
+                GLOSSY[params["distribution"]]
+            return self.node("ShaderNodeBsdfGlossy", {"distribution": dist},
+                             {"Color": w, "Roughness": r, "Anisotropy": aniso, "Normal": n,
+                              "Tangent": t})
+        if name == "hair_reflection":
+            n, ru, rv, t, offset = args
+            return self.node("ShaderNodeBsdfHair", {"component": "Reflection"},
+                             {"Color": w, "RoughnessU": ru, "RoughnessV": rv, "Tangent": t,
+                              "Offset": offset})
+        if name in ("conductor", "dielectric"):
+            if name == "conductor":
+                n, t, ax, ay, ior, k = args
+            else:  # a dielectric is a conductor of extinction 0 (F at total internal reflection: 1)
+                n, t, ax, ay, ior = args
+                ior = self.node("ShaderNodeCombineXYZ", {}, {0: ior, 1: ior, 2: ior})
+                k = ("const", (0.0, 0.0, 0.0))
+            return self._metallic(w, n, t, ax, ay, ior, k, GLOSSY[params["distribution"]])
+        raise ValueError(f"no native closure {name!r}")
+
+    def _metallic(self, w, n, t, ax, ay, ior, k, dist):
+        """Metallic BSDF (physical conductor): roughness sqrt(sqrt(ax ay)),
+        anisotropy 1 - (small/large)/0.9 ... clamped to a ratio of 10, and a
+        quarter turn of the tangent when ax < ay (its anisotropy only
+        stretches along the tangent).  Weighted by Mix Shaders: the grey
+        part of the weight on one closure, what each channel has beyond it on
+        a closure of that channel only."""
+        r = self.math("SQRT", self.math("SQRT", self.math("MULTIPLY", ax, ay)))
+        small = self.math("MINIMUM", ax, ay)
+        large = self.math("MAXIMUM", ax, ay)
+        aniso = self.math("DIVIDE", self.math("SUBTRACT", ("const", 1.0),
+                                              self.math("DIVIDE", small, large)), ("const", 0.9))
+        rot = self.math("MULTIPLY", self.math("LESS_THAN", ax, ay), ("const", 0.25))
+
+        def metal(ior_, k_):
+            return self.node("ShaderNodeBsdfMetallic",
+                             {"distribution": dist, "fresnel_type": "PHYSICAL_CONDUCTOR"},
+                             {"IOR": ior_, "Extinction": k_, "Roughness": r, "Anisotropy": aniso,
+                              "Rotation": rot, "Normal": n, "Tangent": t})
+
+        def scaled(shader, s):
+            fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
+            return self.node("ShaderNodeMixShader", {}, {0: fac, 1: shader})
+
+        if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
+            return scaled(metal(ior, k), ("const", w[1][0]))
+        sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
+        wr, wg, wb = (("link", sep[1], i) for i in range(3))
+        grey = self.math("MINIMUM", self.math("MINIMUM", wr, wg), wb)
+        total = scaled(metal(ior, k), grey)
+        isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+        ksep = self.node("ShaderNodeSeparateXYZ", {}, {0: k})
+        for i, wc in enumerate((wr, wg, wb)):
+            only_ior = {j: (("link", isep[1], i) if j == i else ("const", 1.0)) for j in range(3)}
+            only_k = {j: (("link", ksep[1], i) if j == i else ("const", 0.0)) for j in range(3)}
+            one = metal(self.node("ShaderNodeCombineXYZ", {}, only_ior),
+                        self.node("ShaderNodeCombineXYZ", {}, only_k))
+            part = scaled(one, self.math("SUBTRACT", wc, grey))
+            total = self.node("ShaderNodeAddShader", {}, {0: total, 1: part})
+        return total
+
+
+def plan(outputs: dict, *, raycast: bool = True):
+    """``(nodes, refs)``: the node plan of ``outputs`` (name -> Expr) and
+    each output's source (``raycast``: whether the Blender that builds it
+    has the Raycast node, see :mod:`.build`)."""
+    p = Planner(raycast=raycast)
+    refs = p.run(outputs)
+    return p.nodes, refs
+
+
+def count(outputs: dict, **caps) -> int:
+    return len(plan(outputs, **caps)[0])

@@ -1,0 +1,377 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Lamps for exact mode: binding the Light inputs of RM nodes to lamps by
+drivers, and the light linking of the hybrid mode.
+
+Binding (:func:`bind_lights`): light k of a node (its inputs ``<name>`` for
+k = 1, ``<name>_<k>`` after) follows lamp k through drivers made of simple
+expressions only (no Python auto-run needed): a sun's direction from its
+world rotation, a point or spot lamp's position from its world location, a
+spot's axis, size and blend, the strength and colour.  Binding n lamps gives
+the node the group variant with n lights (structural: each light costs a
+shadow ray).
+
+Hybrid mode: the material renders the bound lamps exactly (the Direct
+output) and everything else with the path-traced BSDF.  So that no lamp
+counts twice, every object using the material is excluded from the bound
+lamps' light by light linking (the lamp's ``light_linking.receiver_collection``,
+link state EXCLUDE).  What the extension adds is recorded on the collection
+(``rm_added``; ``rm_made`` when it made the collection), so that
+:func:`sync_light_linking` adds objects that got the material later, drops
+those that lost it, and unbinding removes exactly what binding added and
+nothing a user linked by hand.  The links are ordinary file data: a file
+renders the same without the extension.
+
+Imports bpy.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+from . import groups
+from .core import catalogue, variants
+
+SUPPORTED_LIGHTS = ("SUN", "POINT", "SPOT")
+LIGHT_NAMES = tuple(p.name for p in catalogue.LIGHT_INPUTS)
+HYBRID = "hybrid"
+
+
+def socket_name(name: str, k: int) -> str:
+    return name if k == 1 else f"{name}_{k}"
+
+
+# ---------------------------------------------------------------------------
+# Drivers
+
+def _drive(socket, index, expression, variables):
+    """A scripted driver on ``socket.default_value[index]`` (index -1 for a
+    scalar) with a simple expression; ``variables``: name -> callable
+    filling a new driver variable."""
+    fcurve = socket.driver_add("default_value", index) if index >= 0 \
+        else socket.driver_add("default_value")
+    driver = fcurve.driver
+    driver.type = 'SCRIPTED'
+    while driver.variables:
+        driver.variables.remove(driver.variables[0])
+    for name, fill in variables.items():
+        var = driver.variables.new()
+        var.name = name
+        fill(var)
+    driver.expression = expression
+    for mod in list(fcurve.modifiers):  # driver_add adds a Generator modifier
+        fcurve.modifiers.remove(mod)
+    return fcurve
+
+
+def _prop(light_data, path):
+    def fill(var):
+        var.type = 'SINGLE_PROP'
+        target = var.targets[0]
+        target.id_type = 'LIGHT'
+        target.id = light_data
+        target.data_path = path
+    return fill
+
+
+def _transform(obj, channel):
+    def fill(var):
+        var.type = 'TRANSFORMS'
+        target = var.targets[0]
+        target.id = obj
+        target.transform_type = channel
+        target.transform_space = 'WORLD_SPACE'
+        target.rotation_mode = 'XYZ'
+    return fill
+
+
+# A sun shines along its local -Z, a spot points along it: the lamp's world
+# +Z axis (toward a sun; a spot's axis reversed) is the third column of
+# R = Rz Ry Rx (XYZ Euler).
+LAMP_Z = (
+    "cos(rz) * sin(ry) * cos(rx) + sin(rz) * sin(rx)",
+    "sin(rz) * sin(ry) * cos(rx) - cos(rz) * sin(rx)",
+    "cos(ry) * cos(rx)",
+)
+# A sun's strength is the irradiance (W/m^2).  Radiant intensity (W/sr) of a
+# point or spot lamp of power P, measured against a Diffuse BSDF in Cycles
+# (tests/test_api.py): P / (4 pi) with "normalize" on (the default); with it
+# off, P r^2 for a radius r > 0 and P / pi for r = 0.
+SUN_STRENGTH = "e * pow(2, x)"
+POINT_STRENGTH = "e * pow(2, x) * (1 / (4 * pi) if n else (r * r if r > 0 else 1 / pi))"
+LIGHT_COLOR = "c * (t if u else 1)"
+
+
+def _check_node(node):
+    info = groups.rm_info(getattr(node, "node_tree", None))
+    if info is None:
+        raise ValueError(f"{getattr(node, 'name', node)!r} is not a Reflection Models node")
+    return info
+
+
+def light_count(node) -> int:
+    _model, variant = _check_node(node)
+    return int(variant.get(variants.LIGHTS_PARAM.name, variants.LIGHTS_PARAM.default))
+
+
+def _light_sockets(node, k):
+    out = []
+    for name in LIGHT_NAMES:
+        try:
+            out.append(groups.input_socket(node, socket_name(name, k)))
+        except KeyError:
+            pass
+    return out
+
+
+def light_drivers(node) -> list:
+    """The driver F-curves on the Light inputs of ``node`` (every light)."""
+    _check_node(node)
+    anim = node.id_data.animation_data
+    if anim is None:
+        return []
+    paths = {s.path_from_id("default_value")
+             for k in range(1, light_count(node) + 1) for s in _light_sockets(node, k)}
+    return [fc for fc in anim.drivers if fc.data_path in paths]
+
+
+def _remove_drivers(node, k):
+    for socket in _light_sockets(node, k):
+        size = len(socket.default_value) if hasattr(socket.default_value, "__len__") else 0
+        if size:
+            for i in range(size):
+                socket.driver_remove("default_value", i)
+        else:
+            socket.driver_remove("default_value")
+
+
+def _bind_one(node, k, light_object):
+    light = light_object.data
+    kind = light.type
+
+    def sock(name):
+        return groups.input_socket(node, socket_name(name, k))
+
+    _remove_drivers(node, k)
+    sock("point_light").default_value = 0.0 if kind == 'SUN' else 1.0
+    sock("spot").default_value = 1.0 if kind == 'SPOT' else 0.0
+    if kind in ('SUN', 'SPOT'):
+        rot = {v: _transform(light_object, f"ROT_{v[1].upper()}") for v in ("rx", "ry", "rz")}
+        for i, expr in enumerate(LAMP_Z):
+            _drive(sock("light_direction"), i, expr, rot)
+    if kind in ('POINT', 'SPOT'):
+        for i, axis in enumerate("xyz"):
+            _drive(sock("light_position"), i, axis,
+                   {axis: _transform(light_object, f"LOC_{axis.upper()}")})
+    if kind == 'SPOT':
+        _drive(sock("spot_size"), -1, "s", {"s": _prop(light, "spot_size")})
+        _drive(sock("spot_blend"), -1, "b", {"b": _prop(light, "spot_blend")})
+    strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure")}
+    if kind != 'SUN':
+        strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
+    _drive(sock("light_strength"), -1, SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH,
+           strength)
+    for i in range(3):
+        _drive(sock("light_color"), i, LIGHT_COLOR,
+               {"c": _prop(light, f"color[{i}]"), "t": _prop(light, f"temperature_color[{i}]"),
+                "u": _prop(light, "use_temperature")})
+
+
+def _check_lamps(lamps):
+    if not lamps:
+        raise ValueError("bind_light needs at least one lamp")
+    if len(lamps) > catalogue.MAX_LIGHTS:
+        raise ValueError(f"{len(lamps)} lamps: exact mode follows 1 to {catalogue.MAX_LIGHTS}")
+    seen = set()
+    for obj in lamps:
+        if getattr(obj, "type", None) != 'LIGHT':
+            raise ValueError(f"{getattr(obj, 'name', obj)!r} is not a light object")
+        if obj.data.type not in SUPPORTED_LIGHTS:
+            raise ValueError(f"{obj.name!r} is a {obj.data.type} light; allowed: "
+                             + ", ".join(SUPPORTED_LIGHTS))
+        if obj.name in seen:
+            raise ValueError(f"{obj.name!r} is given twice")
+        seen.add(obj.name)
+
+
+def bind_lights(node, *lamps) -> None:
+    """Light k of ``node`` follows ``lamps[k - 1]`` (1 to MAX_LIGHTS sun,
+    point or spot lamps); the node gets the group variant with that many
+    lights.  In hybrid mode the material's objects are excluded from the
+    lamps by light linking."""
+    _check_node(node)
+    _check_lamps(lamps)
+    unbind_lights(node)
+    if light_count(node) != len(lamps):
+        groups.switch_variant(node, **{variants.LIGHTS_PARAM.name: str(len(lamps))})
+    for k, obj in enumerate(lamps, start=1):
+        _bind_one(node, k, obj)
+    sync_light_linking()
+
+
+def unbind_lights(node) -> None:
+    """Remove the drivers binding put on the Light inputs, go back to one
+    light, and remove the light linking binding added (nothing else)."""
+    _check_node(node)
+    for k in range(1, light_count(node) + 1):
+        _remove_drivers(node, k)
+    if light_count(node) != 1:
+        groups.switch_variant(node, **{variants.LIGHTS_PARAM.name: "1"})
+    sync_light_linking()
+
+
+def bound_lights(node) -> list:
+    """The lamp objects the lights of ``node`` follow, in order."""
+    out = []
+    for k in range(1, light_count(node) + 1):
+        found = None
+        paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
+        anim = node.id_data.animation_data
+        for fcurve in (anim.drivers if anim else ()):
+            if fcurve.data_path not in paths:
+                continue
+            for var in fcurve.driver.variables:
+                if var.type == 'TRANSFORMS' and var.targets[0].id is not None:
+                    found = var.targets[0].id
+                    break
+            if found is not None:
+                break
+        if found is not None:
+            out.append(found)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Modes and the hybrid mode's light linking
+
+def node_mode(node) -> str:
+    return str(node.get("rm_mode", "")) or _wired_mode(node)
+
+
+def _wired_mode(node):
+    """The mode a node is wired for when it has no rm_mode (older files)."""
+    for name, mode in (("Direct", "exact"), ("BSDF", "path_traced")):
+        try:
+            if groups.output_socket(node, name).is_linked:
+                return mode
+        except KeyError:
+            pass
+    return "path_traced"
+
+
+def hybrid_nodes():
+    """``(material, node)`` of every RM node in hybrid mode."""
+    for mat in bpy.data.materials:
+        tree = mat.node_tree
+        if tree is None:
+            continue
+        for node in tree.nodes:
+            if node.bl_idname == "ShaderNodeGroup" and node.get("rm_mode") == HYBRID \
+                    and groups.rm_info(node.node_tree) is not None:
+                yield mat, node
+
+
+def _users(material):
+    """Objects with ``material`` in a slot."""
+    return [obj for obj in bpy.data.objects
+            if any(slot.material == material for slot in getattr(obj, "material_slots", ()))]
+
+
+def _exclusions() -> dict:
+    """lamp object -> the objects hybrid mode must exclude from it (every
+    lamp a hybrid node is bound to, with no object yet too)."""
+    need = {}
+    for mat, node in hybrid_nodes():
+        users = _users(mat)
+        for lamp in bound_lights(node):
+            need.setdefault(lamp, set()).update(users)
+    return need
+
+
+ADDED = "rm_added"
+MADE = "rm_made"
+
+
+def _our_collection(lamp, create=True):
+    coll = lamp.light_linking.receiver_collection
+    if coll is None and create:
+        coll = bpy.data.collections.new(f"RM Hybrid: {lamp.name}")
+        coll[MADE] = True
+        coll[ADDED] = []
+        lamp.light_linking.receiver_collection = coll
+    return coll
+
+
+def sync_light_linking(*, in_render=False) -> int:
+    """Make the light linking match the hybrid nodes: every object using a
+    hybrid material excluded from each lamp its node is bound to; entries
+    the extension added that are no longer needed removed (and a collection
+    it made, once no hybrid node needs it).  Returns the number of changes.
+
+    ``in_render``: called from a render handler, where making or removing a
+    datablock crashes Blender (measured): only objects are linked and
+    unlinked then; the collections are made when a lamp is bound."""
+    changes = 0
+    need = _exclusions()
+    for lamp, objects in need.items():
+        coll = _our_collection(lamp, create=not in_render)
+        if coll is None:
+            continue
+        added = list(coll.get(ADDED, []))
+        for obj in sorted(objects, key=lambda o: o.name):
+            if obj.name not in coll.objects:
+                coll.objects.link(obj)
+                _entry(coll, obj).light_linking.link_state = 'EXCLUDE'
+                added.append(obj.name)
+                changes += 1
+        coll[ADDED] = added
+    # what is no longer needed: only what the extension added
+    for coll in list(bpy.data.collections):
+        if ADDED not in coll:
+            continue
+        lamps = [o for o in bpy.data.objects
+                 if o.type == 'LIGHT' and o.light_linking.receiver_collection == coll]
+        wanted = set()
+        for lamp in lamps:
+            wanted |= {o.name for o in need.get(lamp, ())}
+        keep = []
+        for name in list(coll[ADDED]):
+            obj = coll.objects.get(name)
+            if obj is None:
+                continue
+            if name in wanted:
+                keep.append(name)
+            else:
+                coll.objects.unlink(obj)
+                changes += 1
+        coll[ADDED] = keep
+        still_bound = any(lamp in need for lamp in lamps)
+        if not keep and coll.get(MADE) and not still_bound and not in_render:
+            for lamp in lamps:
+                lamp.light_linking.receiver_collection = None
+            if not coll.objects and not coll.children:
+                bpy.data.collections.remove(coll)
+            changes += 1
+    return changes
+
+
+def out_of_sync() -> bool:
+    """Whether the light linking differs from what the hybrid nodes need."""
+    for lamp, objects in _exclusions().items():
+        coll = lamp.light_linking.receiver_collection
+        if coll is None:
+            return True
+        for obj in objects:
+            entry = _entry(coll, obj)
+            if entry is None or entry.light_linking.link_state != 'EXCLUDE':
+                return True
+    return False
+
+
+def _entry(coll, obj):
+    """The collection's entry of ``obj`` (its light-linking state), or None.
+    ``collection_objects`` takes no keys and its entries name no object: it
+    walks the same list as ``objects``, in the same order."""
+    for entry, member in zip(coll.collection_objects, coll.objects):
+        if member == obj:
+            return entry
+    return None

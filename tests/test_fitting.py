@@ -1,0 +1,197 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The fitted closure mixtures (issue: the path-traced output is the model).
+
+- **The fitter's closures are Cycles' closures**: each numpy transcription in
+  ``fitting/closures.py`` against gonio renders of the closure itself (the
+  native Glossy node with GGX, Beckmann and Ashikhmin-Shirley, the Diffuse
+  node, and OSL's ``phong_ramp``): 1e-3 relative (float32 renders; the
+  fitter's error bound is 25x that).
+- **The committed data is the fitter's**: the fitter's code hash, no
+  development data, and the reference values the fit was made against
+  (its fingerprint) unchanged.
+- **The data does what it says**: the mixture as the shaders evaluate it
+  (linear between width nodes, the series in the view), against the
+  reference at one width per fit, is within the error the fitter recorded;
+  weights are finite and non-negative over the whole parameter range.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from addon.core.formulas import models as formulas
+from fitting import closures as C
+from fitting import mixtures as M
+from verification.scenes import gonio
+
+RES = 48
+LIGHT = gonio.normalize((0.35, 0.25, 0.90))
+
+
+def _local(g, w):
+    """World directions of the masked pixels in each tile's frame."""
+    n, t = g.normal[g.mask], g.tangent[g.mask]
+    b = np.cross(n, t)
+    return np.stack([np.sum(w * t, -1), np.sum(w * b, -1), np.sum(w * n, -1)], -1)
+
+
+def _render(bpy, mat, osl):
+    from verification.suites import verify
+
+    g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=RES, osl=osl,
+                                name=f"closure_{mat.name}")
+    try:
+        with verify.quiet():
+            img = g.render()
+    finally:
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)
+    return g, img
+
+
+def _native(bpy, node_type, distribution=None, roughness=None):
+    from verification import harness as common
+
+    mat, tree, out = common.empty_material(f"{node_type}_{distribution}_{roughness}")
+    node = tree.nodes.new(node_type)
+    node.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    if distribution is not None:
+        node.distribution = distribution
+        node.inputs["Roughness"].default_value = roughness
+    tree.links.new(node.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def _osl(bpy, source, name):
+    from addon.backends.osl import compile as oslutil
+    from verification import harness as common
+
+    mat, tree, out = common.empty_material(name)
+    text = bpy.data.texts.new(name + ".osl")
+    text.write('#include "stdcycles.h"\nshader probe(output closure color BSDF = 0)\n{\n    '
+               + source + "\n}\n")
+    script = tree.nodes.new("ShaderNodeScript")
+    script.mode = 'INTERNAL'
+    script.script = text
+    oslutil.compile_script_node(script)
+    tree.links.new(script.outputs["BSDF"], out.inputs["Surface"])
+    return mat
+
+
+CASES = [
+    ("ggx", "GGX", 0.3), ("ggx", "GGX", 0.8),
+    ("beckmann", "BECKMANN", 0.3), ("beckmann", "BECKMANN", 0.8),
+    ("ashikhmin_shirley", "ASHIKHMIN_SHIRLEY", 0.3),
+    ("ashikhmin_shirley", "ASHIKHMIN_SHIRLEY", 0.8),
+]
+
+
+@pytest.mark.parametrize("name,distribution,roughness", CASES,
+                         ids=[f"{c[0]}-{c[2]}" for c in CASES])
+def test_the_glossy_transcriptions_are_cycles_closures(bpy, name, distribution, roughness):
+    """Blender's Glossy node: alpha = roughness^2."""
+    g, img = _render(bpy, _native(bpy, "ShaderNodeBsdfGlossy", distribution, roughness),
+                     osl=False)
+    alpha = roughness * roughness
+    wi, wo = _local(g, g.wi[g.mask]), _local(g, g.wo[g.mask])
+    want = C.CLOSURES[name](wi, wo, alpha)
+    got = img[g.mask][:, 0].astype(np.float64)
+    peak = float(want.max())
+    err = np.abs(got - want) / np.maximum(np.abs(want), 1e-3 * peak)
+    print(f"\n{name} alpha {alpha:.2f}: max rel {err.max():.2e} over {g.mask.sum()} px")
+    assert peak > 0 and g.lit.sum() > 100
+    assert err.max() <= 1e-3
+
+
+def test_the_diffuse_transcription_is_cycles_diffuse(bpy):
+    g, img = _render(bpy, _native(bpy, "ShaderNodeBsdfDiffuse"), osl=False)
+    want = C.diffuse(_local(g, g.wi[g.mask]), _local(g, g.wo[g.mask]))
+    got = img[g.mask][:, 0].astype(np.float64)
+    err = np.abs(got - want) / np.maximum(np.abs(want), 1e-3 * want.max())
+    assert err.max() <= 1e-3
+
+
+@pytest.mark.parametrize("exponent", [5.0, 60.0])
+def test_the_phong_ramp_transcription_is_cycles_phong_ramp(bpy, exponent):
+    white = ", ".join(["color(1.0)"] * 8)
+    mat = _osl(bpy, f"color ramp[8] = {{{white}}};\n    BSDF = phong_ramp(N, {exponent}, ramp);",
+               f"phong_ramp_{int(exponent)}")
+    g, img = _render(bpy, mat, osl=True)
+    want = C.phong_ramp(_local(g, g.wi[g.mask]), _local(g, g.wo[g.mask]), exponent)
+    got = img[g.mask][:, 0].astype(np.float64)
+    err = np.abs(got - want) / np.maximum(np.abs(want), 1e-3 * want.max())
+    print(f"\nphong_ramp {exponent}: max rel {err.max():.2e}")
+    assert want.max() > 0 and err.max() <= 1e-3
+
+
+# --------------------------------------------------------------------------
+# the committed data
+
+def _data():
+    from addon.core.fits import mixtures as data
+    return data
+
+
+def test_the_mixtures_are_the_fitters_output():
+    data = _data()
+    assert not data.QUICK, "development data: run make fit"
+    assert set(data.NOT_FITTED) <= {t.key for t in M.targets()}
+    assert data.FITTER == M.fitter_hash(), "the fitter changed since: run make fit"
+    targets = {t.key: t for t in M.targets()}
+    assert set(data.FITS) == set(targets)
+    for key, d in data.FITS.items():
+        t = targets[key]
+        assert tuple(d["members"]) == tuple(t.members) and d["width"] == t.width
+        # the reference the fit was made against (a changed formula shows here)
+        assert d["fingerprint"] == pytest.approx(M.fingerprint(t), rel=1e-9, abs=1e-12), \
+            f"{key}: the reference changed since the fit: run make fit"
+
+
+@pytest.mark.parametrize("key", ["microfacet/gaussian/smith/beta",
+                                 "microfacet/trowbridge_reitz/smith/alpha", "phong"])
+def test_the_data_is_within_what_the_fitter_recorded(key):
+    """At a width between two nodes and three views up to 70 deg: the mixture
+    the shaders evaluate, against the reference, within the error the
+    fitter recorded for the variant (its own measurement, over more widths
+    and views)."""
+    data = _data()
+    fit = M.load_fits([key])[key]
+    d = data.FITS[key]
+    nodes = fit.width_values
+    value = float(0.37 * nodes[len(nodes) // 3] + 0.63 * nodes[len(nodes) // 3 + 1])
+    if fit.target.width == "alpha":
+        value = min(value, fit.target.soft_max)
+    worst = 0.0
+    for deg in (0.0, 40.0, 65.0):  # views the fitter measured at
+        s = M.samples(fit.target, value, math.cos(math.radians(deg)))
+        alphas, w = M.evaluate_series(fit, value, math.cos(math.radians(deg)))
+        A, _a = M._block(s, fit.target.members, alphas)
+        peak = float(s.target[s.fit].max())
+        worst = max(worst, float(np.max(np.abs(A[s.fit] @ w - s.target[s.fit]))) / peak)
+    assert worst <= d["measured"]["max_abs_over_peak_70"] + 1e-9
+    assert np.isfinite(worst)
+
+
+def test_fitted_weights_are_finite_and_non_negative_everywhere():
+    data = _data()
+    for key, d in data.FITS.items():
+        assert d["measured"]["bad_weights"] == 0, key
+        fit = M.load_fits([key])[key]
+        lo, hi = fit.target.domain
+        for value in np.linspace(lo, hi, 41):
+            for c in np.linspace(M.COS_VIEW_MIN, 1.0, 9):
+                alphas, w = M.evaluate_series(fit, float(value), float(c))
+                assert np.all(np.isfinite(w)) and np.all(w >= 0.0), key
+                assert np.all((alphas >= M.ALPHA_MIN) & (alphas <= M.ALPHA_MAX)), key
+
+
+def test_fitted_status_follows_the_fitters_measurement():
+    data = _data()
+    for key, d in data.FITS.items():
+        m = d["measured"]["max_abs_over_peak_70"]
+        status = formulas._fit_status(key)
+        fitted = m <= formulas.FIT_BOUND and key not in data.NOT_FITTED
+        assert status == ("fitted" if fitted else "approx"), key

@@ -1,0 +1,194 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Checks of exact mode under several lamps and of the hybrid mode.
+
+Every function builds its scene through the public API (``api``), renders,
+compares with an expectation from the scene's known geometry and
+``addon.reference`` (never from a render, except the hybrid-versus-path-
+traced comparison, whose subject is that equality), and returns a
+:class:`~verification.harness.checks.Check`.
+
+- :func:`several_lamps`: tiles in exact mode bound to several lamps
+  (``verification.scenes.lit``): the sum over the lamps.  Tolerance 1e-4
+  relative (float32) plus, per pixel, the change of the expected value
+  across the 0.01-pixel filter that Cycles jitters the camera ray in (a
+  point lamp's 1/d^2, a spot's cone edge; zero for suns).
+- :func:`hybrid_bound_lamp`: a model in hybrid mode under its bound sun
+  alone renders the model exactly (the closure, excluded from the sun by
+  light linking, adds nothing).
+- :func:`hybrid_lit_scene`: Trowbridge-Reitz with correlated Smith (an
+  exact closure) in hybrid mode under a bound sun, an unbound sun, a sky
+  and a floor with bounces, against the same material fully path traced:
+  per tile, the means differ by at most 4 standard errors.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .. import harness as common
+from ..harness.checks import Check, TOLERANCES, tolerance
+from ..scenes import gonio, lit
+
+TR = {"distribution": "trowbridge_reitz", "shadowing": "smith_correlated", "beta": 0.4}
+LAMP_SETS = {"four": lit.FOUR_LAMPS, "spots": lit.SPOTS}
+
+
+def _material(name):
+    mat, _tree, _out = common.empty_material(name)
+    return mat
+
+
+def compare(img, expected, mask, spread=None):
+    """``(largest relative error, largest error beyond the allowance /
+    allowance)``: 1e-4 of max(|expected|, 1e-3 peak) plus ``spread``."""
+    tol = tolerance("exact_mode")
+    floor = 1e-3 * float(expected[mask].max())
+    scale = np.maximum(np.abs(expected[mask]), floor)
+    err = np.abs(img[mask].astype(np.float64) - expected[mask])
+    allowed = tol * scale + (0.0 if spread is None else spread[mask])
+    return float((err / scale).max()), float((err / allowed).max())
+
+
+def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resolution=48):
+    t0 = time.perf_counter()
+    bpy = common.import_bpy()
+    lamp_set = LAMP_SETS[lamps]
+    name = f"lit_{lamps}_{model}_{'osl' if osl else 'native'}"
+    mat = _material(name)
+    node = api.add_model(mat, model, mode="exact", **params)
+    s = lit.build_lit_scene(mat, lamp_set, resolution=resolution, name=name)
+    s.scene.cycles.shading_system = osl
+    try:
+        api.bind_light(node, *s.lamp_objects)
+        bound = [o.name for o in api.bound_lights(node)]
+        lights = node.node_tree["rm_variant"]["lights"]
+        img = s.render()
+    finally:
+        bpy.data.scenes.remove(s.scene)
+        bpy.data.materials.remove(mat)
+    expected = s.reference(model, **params)
+    spread = s.footprint_spread(model, **params)
+    worst, ratio = compare(img, expected, s.mask, spread)
+    cones = [lit.spot_cone(w[s.mask] @ lit.normalize(l.direction), l.size, l.blend)
+             for w, l in zip(s.wi, s.lamps) if l.kind == "SPOT"]
+    values = {"model": model, "lamps": lamps, "backend": "osl" if osl else "native",
+              "max_rel_error": worst, "allowance_used": ratio, "n_pixels": int(s.mask.sum()),
+              "bound": bound, "lights": lights, "lamp_names": [o for o in bound],
+              "cone_edge_pixels": int(sum(np.sum((c > 0.01) & (c < 0.99)) for c in cones)),
+              "outside_cone_pixels": int(sum(np.sum(c == 0.0) for c in cones))}
+    return Check(name=f"{model} exact, {len(lamp_set)} lamps ({lamps}), "
+                      f"{values['backend']}",
+                 passed=ratio <= 1.0, measured=f"max rel error {worst:.2e} "
+                 f"({ratio:.2f} of the allowance)",
+                 expected="<= 1e-4 relative + the change across the pixel filter",
+                 group="lamps", tolerance=TOLERANCES["exact_mode"].reason,
+                 values=values, seconds=time.perf_counter() - t0)
+
+
+def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48):
+    """The tiles are hidden from diffuse and glossy rays: Cycles traces a
+    BSDF ray even without bounces to collect emission, and the neighbours'
+    Direct output is an emission (their reflection of the sun: right in a
+    lit scene, not this check's subject)."""
+    t0 = time.perf_counter()
+    bpy = common.import_bpy()
+    light = gonio.normalize((0.35, 0.25, 0.90))
+    name = f"hybrid_{model}_{'osl' if osl else 'native'}"
+    mat = _material(name)
+    node = api.add_model(mat, model, mode="hybrid")
+    g = gonio.build_gonio_scene(mat, light_dir=light, resolution=resolution, osl=osl, name=name)
+    g.scene.cycles.shading_system = osl
+    g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
+    try:
+        api.bind_light(node, g.sun)
+        coll = g.sun.light_linking.receiver_collection
+        excluded = coll is not None and any(
+            o == g.tiles_object and e.light_linking.link_state == 'EXCLUDE'
+            for e, o in zip(coll.collection_objects, coll.objects))
+        img = g.render()
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)
+    expected = g.reference(model)
+    worst, ratio = compare(img, expected, g.mask)
+    values = {"model": model, "backend": "osl" if osl else "native", "max_rel_error": worst,
+              "excluded": excluded, "n_lit": int(g.lit.sum()),
+              "peak": float(expected[g.lit].max()) if g.lit.any() else 0.0}
+    return Check(name=f"{model} hybrid under its bound sun, {values['backend']}",
+                 passed=ratio <= 1.0 and excluded, measured=f"max rel error {worst:.2e}",
+                 expected="<= 1e-4: the bound lamp exactly, no closure response to it",
+                 group="hybrid", tolerance=TOLERANCES["exact_mode"].reason, values=values,
+                 seconds=time.perf_counter() - t0)
+
+
+def _lit_scene(api, mode, samples, resolution):
+    """Tiles (TR + correlated Smith) over a white floor, a bound sun, an
+    unbound sun, a sky of strength 0.5, 4 bounces."""
+    bpy = common.import_bpy()
+    name = f"rm_hybrid_scene_{mode}"
+    mat = _material(name)
+    node = api.add_model(mat, "microfacet", mode=mode, **TR)
+    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.90), resolution=resolution,
+                                osl=True, name=name)
+    scene = g.scene
+    common.configure_cycles(scene, samples=samples, max_bounces=4, osl=True, seed=7)
+    common.set_world_background(scene, 0.5, (0.6, 0.75, 1.0))
+    other = lit.add_lamp(scene, lit.Lamp("SUN", direction=(-0.5, 0.3, 0.81), strength=0.7,
+                                         color=(1.0, 0.85, 0.7)), name + "_sun2")
+    floor_mat = _material(name + "_floor")
+    tree = floor_mat.node_tree
+    out = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(diffuse.outputs[0], out.inputs["Surface"])
+    mesh = bpy.data.meshes.new(name + "_floor")
+    mesh.from_pydata([(-8, -8, -1.5), (8, -8, -1.5), (8, 8, -1.5), (-8, 8, -1.5)], [],
+                     [(0, 1, 2, 3)])
+    mesh.materials.append(floor_mat)
+    scene.collection.objects.link(bpy.data.objects.new(name + "_floor", mesh))
+    api.bind_light(node, g.sun)
+    unbound_linked = other.light_linking.receiver_collection is not None
+    return g, node, (mat, floor_mat), unbound_linked
+
+
+def hybrid_lit_scene(api, *, samples=64, resolution=48):
+    """The Monte Carlo bound: per tile, the means of the two renders differ
+    by at most 4 standard errors (from the spread of each tile's pixels,
+    which also holds the tile's small geometric variation: an overestimate
+    of the noise) plus 1e-4 of the mean (float32)."""
+    t0 = time.perf_counter()
+    bpy = common.import_bpy()
+    images = {}
+    for mode in ("hybrid", "path_traced"):
+        g, node, mats, unbound_linked = _lit_scene(api, mode, samples, resolution)
+        try:
+            images[mode] = g.render().astype(np.float64)
+        finally:
+            api.unbind_light(node)
+            bpy.data.scenes.remove(g.scene)
+            for m in mats:
+                bpy.data.materials.remove(m)
+    h, p = images["hybrid"], images["path_traced"]
+    finite = bool(np.isfinite(h).all() and np.isfinite(p).all())
+    worst, tiles = 0.0, 0
+    for k in range(len(g.tiles)):
+        m = g.inside & (g.tile_index == k)
+        n = int(m.sum())
+        if n < 10:  # too few pixels inside the tile to estimate its noise
+            continue
+        tiles += 1
+        mh, mp = h[m].mean(0), p[m].mean(0)
+        se = np.sqrt(h[m].var(0, ddof=1) / n + p[m].var(0, ddof=1) / n)
+        bound = 4.0 * se + 1e-4 * np.abs(mp)
+        worst = max(worst, float(np.max(np.abs(mh - mp) / np.maximum(bound, 1e-12))))
+    values = {"worst_over_bound": worst, "tiles": tiles, "samples": samples, "finite": finite,
+              "unbound_linked": unbound_linked, "mean": float(h[g.inside].mean())}
+    return Check(name="hybrid vs fully path traced, TR + correlated Smith, lit scene",
+                 passed=finite and worst <= 1.0 and not unbound_linked,
+                 measured=f"largest tile difference {worst:.2f} of its bound ({tiles} tiles, "
+                 f"{samples} spp)",
+                 expected="per tile: |mean difference| <= 4 standard errors + 1e-4",
+                 group="hybrid", tolerance="Monte Carlo noise of both renders",
+                 values=values, seconds=time.perf_counter() - t0)
