@@ -3,7 +3,10 @@
 
 - the series coefficients (:mod:`fitting.series`; seconds);
 - with ``--mixtures``, the fitted closure mixtures (:mod:`fitting.mixtures`;
-  about an hour on two cores; resumable), optionally ``--only KEY ...``.
+  about two and a half hours on two cores, resumable: each variant's fit
+  is kept in build/fits), optionally ``--only KEY ...``; each variant
+  ships the better of its fit and the single lobe of its kind;
+- ``--collect``: the module from the fits made so far.
 """
 
 from __future__ import annotations
@@ -130,6 +133,9 @@ def main(argv=None) -> int:
         todo = sorted(todo, key=lambda k: "/none/" not in k)
         with ProcessPoolExecutor(args.jobs) as pool:
             fits = dict(zip(todo, pool.map(_fit, todo)))
+        if not args.only:  # every fit is in build/fits: the better of it and the single lobe
+            collect(args.jobs)
+            return 0
         if args.only:  # keep the others as committed
             fits = {**mixtures.load_fits(keys), **fits}
         path = FITS / "mixtures.py"
