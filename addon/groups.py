@@ -417,13 +417,8 @@ def _feed(tree, socket, src):
     if src is None:
         return
     if isinstance(src, tuple) and src and src[0] == "const":
-        value = src[1]
-        current = socket.default_value
-        if hasattr(current, "__len__"):
-            vals = tuple(value) if isinstance(value, tuple) else (value,) * 3
-            socket.default_value = vals + (1.0,) * (len(current) - len(vals))
-        else:
-            socket.default_value = value
+        from .backends.native import build as native_build
+        native_build.set_constant(socket, src[1])
         return
     tree.links.new(src, socket)
 

@@ -70,3 +70,17 @@ def pytest_unconfigure(config):
         sys.stderr.flush()
         bpy_env.cleanup()
         os._exit(_exit_status)
+
+
+@pytest.fixture(scope="module")
+def api(bpy):
+    """The extension's scripting API, imported from the tree (a test module
+    may define its own, e.g. the installed extension's)."""
+    from addon import api as rm_api
+    return rm_api
+
+
+@pytest.fixture(scope="module")
+def verify(bpy):
+    from verification.suites import verify as v
+    return v

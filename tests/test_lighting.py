@@ -34,12 +34,6 @@ RES = 48
 TR = lighting.TR
 
 
-@pytest.fixture(scope="module")
-def api(bpy):
-    from addon import api as rm_api
-    return rm_api
-
-
 def _material(name):
     mat, _tree, _out = common.empty_material(name)
     return mat

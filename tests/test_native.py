@@ -38,18 +38,6 @@ ONE_LIGHT = cases_mod.LIGHT_DIRS[:1]
 THETA_D = (15.0, 60.0)
 
 
-@pytest.fixture(scope="module")
-def api(bpy):
-    from addon import api as rm_api
-    return rm_api
-
-
-@pytest.fixture(scope="module")
-def verify(bpy):
-    from verification.suites import verify as v
-    return v
-
-
 def _run(verify, api, case, mode, backend, theta_d=THETA_D, **kw):
     c = verify.run_case(case, mode, resolution=RES, light_dirs=ONE_LIGHT, theta_d=theta_d,
                         api=api, keep_images=False, backend=backend, **kw)

@@ -28,18 +28,6 @@ def _slug(case):
     return re.sub(r"[^A-Za-z0-9.]+", "-", case.id).strip("-")
 
 
-@pytest.fixture(scope="module")
-def api(bpy):
-    from addon import api as rm_api
-    return rm_api
-
-
-@pytest.fixture(scope="module")
-def verify(bpy):
-    from verification.suites import verify as v
-    return v
-
-
 # --------------------------------------------------------------------------
 # the case list itself (no Blender)
 

@@ -92,6 +92,20 @@ def _look_at(obj, target):
     obj.rotation_euler = d.to_track_quat('-Z', 'Y').to_euler()
 
 
+def _lamp(scene, name, kind, location, **settings):
+    """A lamp of ``kind`` at ``location`` aimed at the origin, with the
+    light data's ``settings``; returns its object."""
+    import bpy
+    light = bpy.data.lights.new(name, kind)
+    for key, value in settings.items():
+        setattr(light, key, value)
+    obj = bpy.data.objects.new(name, light)
+    obj.location = location
+    scene.collection.objects.link(obj)
+    _look_at(obj, (0.0, 0.0, 0.0))
+    return obj
+
+
 def _label_material(name):
     mat, tree, out = common.empty_material(name)
     em = tree.nodes.new("ShaderNodeEmission")
@@ -132,22 +146,10 @@ def build_gallery(api, *, resolution=(800, 160), samples=24, denoise=True, balls
     cam_data.shift_y = -0.025
     scene.camera = cam
 
-    key = bpy.data.lights.new(name + "_key", 'AREA')
-    key.energy = 900.0
-    key.size = 4.0
-    key.color = (1.0, 0.95, 0.88)
-    key_obj = bpy.data.objects.new(name + "_key", key)
-    key_obj.location = (-5.0, -6.0, 6.0)
-    scene.collection.objects.link(key_obj)
-    _look_at(key_obj, (0.0, 0.0, 0.0))
-    rim = bpy.data.lights.new(name + "_rim", 'SUN')
-    rim.energy = 2.0
-    rim.angle = 4.0 * DEG
-    rim.color = (0.8, 0.88, 1.0)
-    rim_obj = bpy.data.objects.new(name + "_rim", rim)
-    rim_obj.location = (4.0, 8.0, 5.0)
-    scene.collection.objects.link(rim_obj)
-    _look_at(rim_obj, (0.0, 0.0, 0.0))
+    _lamp(scene, name + "_key", 'AREA', (-5.0, -6.0, 6.0), energy=900.0, size=4.0,
+          color=(1.0, 0.95, 0.88))
+    _lamp(scene, name + "_rim", 'SUN', (4.0, 8.0, 5.0), energy=2.0, angle=4.0 * DEG,
+          color=(0.8, 0.88, 1.0))
 
     radius = 0.4
     label_mat = _label_material(name + "_label")
@@ -262,21 +264,10 @@ def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
     _look_at(cam, (-0.5 * spacing, 0.0, 0.0))
     scene.camera = cam
 
-    sun = bpy.data.lights.new(name + "_sun", 'SUN')
-    sun.energy = 2.5
-    sun.angle = 0.0
-    sun.color = (1.0, 0.93, 0.85)
-    sun_obj = bpy.data.objects.new(name + "_sun", sun)
-    sun_obj.location = (-4.0, -6.0, 6.0)
-    scene.collection.objects.link(sun_obj)
-    _look_at(sun_obj, (0.0, 0.0, 0.0))
-    point = bpy.data.lights.new(name + "_point", 'POINT')
-    point.energy = 250.0
-    point.shadow_soft_size = 0.0
-    point.color = (0.7, 0.8, 1.0)
-    point_obj = bpy.data.objects.new(name + "_point", point)
-    point_obj.location = (4.0, -3.0, 1.5)
-    scene.collection.objects.link(point_obj)
+    sun_obj = _lamp(scene, name + "_sun", 'SUN', (-4.0, -6.0, 6.0), energy=2.5, angle=0.0,
+                    color=(1.0, 0.93, 0.85))
+    point_obj = _lamp(scene, name + "_point", 'POINT', (4.0, -3.0, 1.5), energy=250.0,
+                      shadow_soft_size=0.0, color=(0.7, 0.8, 1.0))
 
     radius = 0.4
     label_mat = _label_material(name + "_label")

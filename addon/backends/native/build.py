@@ -25,6 +25,17 @@ def capabilities() -> dict:
     return {"raycast": has_raycast()}
 
 
+def set_constant(socket, value) -> None:
+    """An unlinked socket's value: a float, or a vector/colour (a float
+    fills every component; a colour's alpha is 1)."""
+    current = socket.default_value
+    if hasattr(current, "__len__"):
+        vals = tuple(value) if isinstance(value, tuple) else (value,) * 3
+        socket.default_value = vals + (1.0,) * (len(current) - len(vals))
+    else:
+        socket.default_value = value if not isinstance(value, tuple) else value[0]
+
+
 def _socket(collection, key):
     if isinstance(key, int):
         return collection[key]
@@ -99,13 +110,7 @@ class Builder:
 
     def feed(self, socket, src, made):
         if src[0] == "const":
-            value = src[1]
-            current = socket.default_value
-            if hasattr(current, "__len__"):
-                vals = tuple(value) if isinstance(value, tuple) else (value,) * 3
-                socket.default_value = vals + (1.0,) * (len(current) - len(vals))
-            else:
-                socket.default_value = value if not isinstance(value, tuple) else value[0]
+            set_constant(socket, src[1])
             return
         self.tree.links.new(self.source(src, made), socket)
 
