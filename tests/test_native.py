@@ -219,3 +219,26 @@ def _valid(model, enums):
         return True
     except ValueError:
         return False
+
+
+def test_the_largest_native_graphs_stay_compact():
+    """The Λ series of Blinn and Gaussian (20 coefficients of 28 terms in
+    β) is evaluated three coefficients per Vector Math node, and a product
+    feeding a sum is one Multiply Add node: the largest variant plans under
+    1,500 nodes (it was 2,754 with a node per scalar operation; Blender's
+    node creation grows with the tree, so this is the build time)."""
+    from addon.backends.native import emit
+    from addon.core.formulas import models as formulas
+
+    enums = {"distribution": "gaussian", "shadowing": "smith", "fresnel": "conductor",
+             "width_mode": "beta"}
+    v = formulas.Values("microfacet", enums, known=True)
+    s = formulas.shading("microfacet", enums, caps=formulas.NATIVE_CLOSURES)
+    graphs = {"BSDF": formulas.FORMULAS["microfacet"].closure(v, s),
+              **formulas.exact("microfacet", v, s)}
+    nodes, _refs = emit.plan(graphs)
+    assert len(nodes) < 1500
+    ops = [n.props.get("operation") for n in nodes]
+    assert ops.count("MULTIPLY_ADD") > 100
+    assert sum(1 for n in nodes if n.type == "ShaderNodeVectorMath"
+               and n.props.get("operation") == "MULTIPLY_ADD") >= 7 * 20

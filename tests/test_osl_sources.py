@@ -92,3 +92,31 @@ def test_the_generated_shaders_fold_a_choice_into_an_if_chain():
     codes = generate.enum_codes("microfacet")["distribution"]
     for choice, code in codes.items():
         assert f"distribution == {code}" in src, choice
+
+
+def test_a_packed_vector_stays_whole_and_folds_like_a_constant():
+    """Three series evaluated at once: arithmetic on a packed constant stays
+    one vector operation (a vconst would be split into three float
+    operations), folds when both sides are constant, and its components
+    are the numbers it was made of."""
+    t = E.input_("t_packed_test")
+    v = E.packed(1.0, 2.0, 3.0)
+    s = E.vscale(v, t) + E.packed(0.5, 0.5, 0.5)
+    assert s.op == "vadd" and s.kind == "v"
+    assert E.count([s]) == 2
+    assert (E.packed(1.0, 2.0, 3.0) + E.packed(1.0, 1.0, 1.0)).data == (2.0, 3.0, 4.0)
+    assert E.vscale(v, 2.0).data == (2.0, 4.0, 6.0)
+    assert [E.comp(v, i).data for i in range(3)] == [1.0, 2.0, 3.0]
+    assert s - E.packed(0.0, 0.0, 0.0) is s
+
+
+def test_a_vector_chebyshev_series_is_three_scalar_series():
+    """Clenshaw's recurrence with packed coefficients gives, per component,
+    the scalar recurrence's value (checked numerically at a constant t,
+    where both fold)."""
+    rows = [(0.3, -1.0, 2.0), (0.1, 0.5, -0.25), (-0.2, 0.05, 0.75), (0.01, -0.3, 0.2)]
+    t = 0.37
+    packed = library.chebyshev([E.packed(*r) for r in rows], E.const(t))
+    for i in range(3):
+        scalar = library.chebyshev([r[i] for r in rows], E.const(t))
+        assert packed[i].data == pytest.approx(scalar.data, rel=1e-12)

@@ -121,6 +121,10 @@ class Builder:
         rows = {}
         for n in nodes:
             node = self.tree.nodes.new(n.type)
+            # A name of our own at once: Blender names a new node "Math",
+            # "Math.001", ... trying each suffix against every node, which
+            # grows with the square of the tree; "Math" stays free this way.
+            node.name = f"RM native {self.count + len(made)}"
             for prop, value in n.props.items():
                 if prop == "curve":
                     _set_curve(node, value)

@@ -108,10 +108,32 @@ class Planner:
     # -- the graph ----------------------------------------------------------------
     def run(self, outputs: dict) -> dict:
         self._by_id = {}
+        self._fused = self._fusable(outputs.values())
         refs = {}
         for name, expr in outputs.items():
             refs[name] = self.ref(expr)
         return refs
+
+    @staticmethod
+    def _fusable(roots) -> set:
+        """Products used once, by a sum: the sum becomes one Multiply Add
+        node (Math or Vector Math) and the product no node of its own."""
+        uses = {}
+        order = E.topological(list(roots))
+        for node in order:
+            for a in node.args:
+                uses[id(a)] = uses.get(id(a), 0) + 1
+        for r in roots:
+            uses[id(r)] = uses.get(id(r), 0) + 2  # an output is a use of its own
+        fused = set()
+        for node in order:
+            if node.op not in ("add", "vadd"):
+                continue
+            for a in node.args:
+                if a.op == ("mul" if node.op == "add" else "vscale") and uses[id(a)] == 1:
+                    fused.add(id(a))
+                    break
+        return fused
 
     def ref(self, e):
         key = id(e)
@@ -129,6 +151,8 @@ class Planner:
         op, a = e.op, e.args
         if op == "const":
             return ("const", e.data)
+        if op == "vlit":
+            return ("const", e.data)
         if op == "input":
             name, source = e.data
             return ("geometry", name) if source == "geometry" else ("group", name)
@@ -145,6 +169,16 @@ class Planner:
                 self.separate[key] = self.node("ShaderNodeSeparateXYZ", {}, {0: src})
             sep = self.separate[key]
             return ("link", sep[1], e.data)
+        if id(e) in self._fused:  # made by the sum that uses it
+            return ("fused", e)
+        if op in ("add", "vadd"):
+            fused = [x for x in a if self._r(x)[0] == "fused"]
+            if fused:
+                (p, q), other = fused[0].args, a[1] if a[0] is fused[0] else a[0]
+                if op == "add":
+                    return self.math("MULTIPLY_ADD", self._r(p), self._r(q), self._r(other))
+                return self.vmath("MULTIPLY_ADD", self._r(p), self._splat(self._r(q)),
+                                  self._r(other))
         if op in MATH:
             return self.math(MATH[op], *(self._r(x) for x in a))
         if op in MATH1:
@@ -219,8 +253,13 @@ class Planner:
         raise ValueError(f"no native form for {op!r}")
 
     def _splat(self, f):
-        """A float as a vector (x, x, x)."""
-        return self.node("ShaderNodeCombineXYZ", {}, {0: f, 1: f, 2: f})
+        """A float as a vector (x, x, x), one node per float."""
+        if f[0] == "const":
+            return ("const", (f[1],) * 3)
+        key = ("splat", f)
+        if key not in self.separate:
+            self.separate[key] = self.node("ShaderNodeCombineXYZ", {}, {0: f, 1: f, 2: f})
+        return self.separate[key]
 
     # -- closures -----------------------------------------------------------------
     def _roughness(self, ax, ay):

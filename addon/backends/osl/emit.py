@@ -100,6 +100,8 @@ class _Emitter:
     def ref(self, node) -> str:
         if node.op == "const":
             return number(node.data)
+        if node.op == "vlit":
+            return f"vector({', '.join(number(x) for x in node.data)})"
         if node.op == "input":
             name, source = node.data
             return GEOMETRY[name] if source == "geometry" else name
@@ -166,7 +168,7 @@ class _Emitter:
         self._root_ids = {id(r) for r in self.roots}
         by_ctx = {}
         for node in self.order:
-            if node.op in ("const", "input"):
+            if node.op in E.LEAVES:
                 continue
             by_ctx.setdefault(self.ctx[id(node)], []).append(node)
         self.by_ctx = by_ctx

@@ -39,6 +39,7 @@ import hashlib
 import math
 
 KINDS = ("f", "v", "c")
+LEAVES = ("const", "vlit", "input")
 
 # op -> (result kind rule, arity); "same" = kind of the first argument
 _UNARY_F = {"neg", "sqrt", "exp", "log", "sin", "cos", "tan", "atan", "abs", "floor",
@@ -153,6 +154,14 @@ def const(value: float) -> Expr:
 
 def vconst(x, y, z) -> Expr:
     return vec(const(x), const(y), const(z))
+
+
+def packed(x, y, z) -> Expr:
+    """A vector constant kept whole (a leaf, unlike :func:`vconst`, whose
+    components are split out wherever one is used): arithmetic on it stays
+    vector arithmetic, one native node per operation for three values.  For
+    evaluating three series at once."""
+    return _make("vlit", (), "v", tuple(0.0 if float(v) == 0.0 else float(v) for v in (x, y, z)))
 
 
 def input_(name: str, kind: str = "f") -> Expr:
@@ -477,6 +486,8 @@ def comp(v, i: int) -> Expr:
         raise TypeError("comp takes a vector")
     if v.op == "vec":
         return v.args[i]
+    if v.op == "vlit":
+        return const(v.data[i])
     if v.op in ("vadd", "vsub", "vmul") and any(a.op == "vec" for a in v.args):
         return _binary(v.op[1:], comp(v.args[0], i), comp(v.args[1], i))
     if v.op == "vscale" and (v.args[0].op == "vec" or v.args[1].is_const):
@@ -489,6 +500,17 @@ def _is_vconst(v):
 
 
 def _vbinary(op, a, b):
+    if a.kind == "v" and b.kind == "v" and "vlit" in (a.op, b.op):
+        if a.op == b.op == "vlit":
+            folded = [_fold2(op, x, y) for x, y in zip(a.data, b.data)]
+            if all(v is not None and _f32ok(v) for v in folded):
+                return packed(*folded)
+        if op in ("add", "sub") and b.op == "vlit" and b.data == (0.0, 0.0, 0.0):
+            return a
+        if op == "add" and a.op == "vlit" and a.data == (0.0, 0.0, 0.0):
+            return b
+        if op in ("add", "sub", "mul", "div"):
+            return _make("v" + op, (a, b), "v")
     if a.kind == "v" and b.kind == "v":
         if op in ("add", "sub", "mul", "div") and not (_is_vconst(a) and _is_vconst(b)):
             if op == "mul" and _is_vconst(a) and len({x.data for x in a.args}) == 1:
@@ -516,6 +538,10 @@ def vscale(v, f) -> Expr:
     cf = _c(f)
     if cf == 1.0:
         return v
+    if v.op == "vlit" and cf is not None:
+        folded = [x * cf for x in v.data]
+        if all(_f32ok(x) for x in folded):
+            return packed(*folded)
     if v.op == "vec" or cf == 0.0:
         return vec(*(comp(v, i) * f for i in range(3)))
     return _make("vscale", (v, f), "v")
@@ -646,7 +672,7 @@ def inputs_of(roots) -> list:
 
 def count(roots) -> int:
     """Nodes reachable from ``roots`` that are not leaves."""
-    return sum(1 for n in topological(roots) if n.op not in ("const", "input"))
+    return sum(1 for n in topological(roots) if n.op not in LEAVES)
 
 
 def occluded(position, direction, max_distance, enabled) -> Expr:

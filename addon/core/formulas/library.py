@@ -67,11 +67,12 @@ def erfc(x):
 
 def chebyshev(coefficients, t):
     """sum_k c_k T_k(t) by Clenshaw's recurrence (coefficients: numbers or
-    expressions)."""
-    coefficients = list(coefficients)
+    expressions; vectors evaluate three series at once)."""
+    coefficients = [E.wrap(c) for c in coefficients]
     if len(coefficients) == 1:
-        return E.wrap(coefficients[0])
-    b1, b2 = E.wrap(coefficients[-1]), const(0.0)
+        return coefficients[0]
+    b1 = coefficients[-1]
+    b2 = E.packed(0.0, 0.0, 0.0) if b1.kind == "v" else const(0.0)
     t2 = 2.0 * t
     for c in coefficients[-2:0:-1]:
         b1, b2 = c + t2 * b1 - b2, b1
@@ -174,11 +175,18 @@ def S_smith_1967(wx, wy, wz, ax, ay):
 
 def lambda_chebyshev_coefficients(distribution: str, beta):
     """The coefficients in x of the series for this beta (the beta part of
-    the two-dimensional series, summed once per shading point; folded to
-    constants wherever beta is constant)."""
+    the two-dimensional series, summed once per shading point, three
+    coefficients per vector operation; folded to constants wherever beta is
+    constant)."""
     table = _series.LAMBDA[distribution]
     tb = _beta_series_variable(beta)
-    return [chebyshev([row[i] for row in table], tb) for i in range(_series.NX)]
+    out = []
+    for first in range(0, _series.NX, 3):  # three columns per vector series
+        columns = list(range(first, min(first + 3, _series.NX)))
+        series = chebyshev([E.packed(*([row[i] for i in columns] + [0.0] * (3 - len(columns))))
+                            for row in table], tb)
+        out.extend(series[k] for k in range(len(columns)))
+    return out
 
 
 def Lambda_chebyshev_x(wx, wy, wz, m, coefficients):
