@@ -187,7 +187,9 @@ def fits_table_html():
         beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "—"
         members = ", ".join(d["members"])
         if key in mixtures.NOT_FITTED:
-            members, status = "not fitted yet: the single lobe of its kind", "approx (single lobe)"
+            members = mixtures.shipped(key)
+        elif mixtures.shipped(key) != "fitted":
+            members += f" ({mixtures.shipped(key)})"
         rows.append(f"<tr><td>{escape(key)}</td><td>{escape(members)}</td>"
                     f"<td class=\"num\">{m['max_abs_over_peak_70']:.3f}</td>"
                     f"<td class=\"num\">{m['max_abs_over_peak_85']:.3f}</td>"

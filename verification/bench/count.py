@@ -2,10 +2,10 @@
 """Instructions per rendered frame of each model, relative to the native Glossy BSDF.
 
 ``make bench`` prints this table after the render-time one
-(``python -m tools.bench_count`` alone).  Needs valgrind.
+(``python -m tools.bench --count`` alone).  Needs valgrind.
 
 Why: render time on a shared 2-core machine moves by up to 1.7x from one
-minute to the next, so the time ratios of ``tools.bench_render`` carry about
+minute to the next, so the time ratios of ``verification.bench.render`` carry about
 +-0.15.  valgrind's callgrind counts the instructions the process executes,
 and the same render gives the same count whatever else the machine does
 (the native frame counted 297.8 M instructions in two processes, equal to
@@ -14,9 +14,9 @@ differ in cost, and cache misses are not counted.  But the ratio says what a
 material adds to a render at equal samples, and it is repeatable, so a change
 of 1 % is visible.
 
-How: the rows of ``tools.bench_render.ROWS`` are dealt to ``jobs`` processes,
+How: the rows of ``verification.bench.render.ROWS`` are dealt to ``jobs`` processes,
 each running Python under ``valgrind --tool=callgrind --dump-before=os_getppid``.
-A process renders the bench scene (``test_scenes/bench.py``; 64x64, 8
+A process renders the bench scene (``verification/scenes/bench.py``; 64x64, 8
 samples, one render thread so the work is the same every time) for the native
 Glossy BSDF in SVM and then for each of its materials, two frames each with
 persistent data (the first compiles the shaders).  The render handlers call
@@ -44,7 +44,7 @@ import tempfile
 from pathlib import Path
 from types import SimpleNamespace
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BASELINE = "native Glossy GGX, SVM"
 MARK_FUNCTION = "os_getppid"
 
@@ -217,7 +217,7 @@ def main(argv=None):
     parser.add_argument("--samples", type=int, default=8)
     parser.add_argument("--jobs", type=int, default=2, help="processes under valgrind")
     parser.add_argument("--rows", nargs="+", metavar="LABEL",
-                        help="only these rows of tools.bench_render.ROWS (default: all)")
+                        help="only these rows of verification.bench.render.ROWS (default: all)")
     parser.add_argument("--inner", metavar="ROWS_JSON", help=argparse.SUPPRESS)
     parser.add_argument("--marks", help=argparse.SUPPRESS)
     args = parser.parse_args(argv if argv is not None else [])

@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Render cost of each model relative to Blender's native Glossy BSDF.
 
-``make bench`` (through tools.bench) or ``python -m tools.bench_render``.
+``make bench`` (through tools.bench) or ``python -m verification.bench.render``.
 
-Scene (test_scenes/bench.py): a sphere filling the frame, so every pixel
+Scene (verification/scenes/bench.py): a sphere filling the frame, so every pixel
 shades the material under test; a sun; direct light only; default 128x128,
 16 samples, all CPU threads.  Each material renders ``--frames`` frames as
 one animation with persistent data: the first frame also builds the scene

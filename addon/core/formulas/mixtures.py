@@ -24,7 +24,9 @@ from .expr import clamp, closure_sum, div, exp, fmax, sqrt, table
 from .library import beckmann_m_from_beta, chebyshev, tr_alpha_from_beta
 
 FITS = _data.FITS
-NOT_FITTED = frozenset(getattr(_data, "NOT_FITTED", ()))  # the single lobe: the fit did not run
+# variants with no fitted width: a single lobe of their kind stands in
+NOT_FITTED = frozenset(getattr(_data, "NOT_FITTED", ()))
+SHIPPED = dict(getattr(_data, "SHIPPED", {}))  # what each variant's data is, in words
 ALPHA_MIN, ALPHA_MAX = 1e-3, 1.0  # the fitter's limits (Cycles clamps alpha to [0, 1])
 
 
@@ -34,6 +36,15 @@ def has(key: str) -> bool:
 
 def measured(key: str) -> dict:
     return dict(FITS[key]["measured"])
+
+
+def shipped(key: str) -> str:
+    """What the variant's data is: "fitted", "fitted; the weighted single
+    lobe at 4 of 16 widths", "single lobe, weighted by view; the fit
+    measured 0.3", ... (fitting/assemble.py)."""
+    if key in SHIPPED:
+        return SHIPPED[key]
+    return "single lobe" if key in NOT_FITTED else "fitted"
 
 
 def width_variable(width: str, value):
@@ -99,4 +110,5 @@ def nodes(key: str) -> list:
     return [lo + (hi - lo) * i / (n - 1) for i in range(n)]
 
 
-__all__ = ["FITS", "NOT_FITTED", "has", "measured", "members", "mixture", "nodes", "width_variable"]
+__all__ = ["FITS", "NOT_FITTED", "SHIPPED", "has", "measured", "members", "mixture", "nodes", "shipped",
+           "width_variable"]

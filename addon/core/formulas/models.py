@@ -215,9 +215,9 @@ class BlinnPhong(Formula):
 
 
 def _fit_status(key):
+    """"fitted" where the shipped data (a fitted mixture or a weighted single
+    lobe: fitting/assemble.py) measured within FIT_BOUND, else "approx"."""
     from . import mixtures
-    if key in mixtures.NOT_FITTED:  # the single lobe stands in: never called fitted
-        return "approx"
     return "fitted" if mixtures.measured(key)["max_abs_over_peak_70"] <= FIT_BOUND else "approx"
 
 

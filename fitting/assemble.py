@@ -1,0 +1,167 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What ships for each variant, from the fits of :mod:`.mixtures`.
+
+A fit can be worse than a simpler stand-in somewhere: at a width where the
+mixture settled badly, or for a variant whose missing factor depends on the
+light (no mixture has it).  So every variant is also given the two single
+lobes of its kind at the equivalent width (Ashikhmin-Shirley for
+Blinn-Phong, GGX for Trowbridge-Reitz, Beckmann otherwise):
+
+- the *constant* lobe: one weight for every view (1 for a normalised D, the
+  peak's for the unnormalised lobes): the stand-in the variant had before
+  any fit;
+- the *weighted* lobe: at every width and view node the weight that
+  minimises the largest error there (the fitter's linear programme with one
+  member), interpolated over the view like a fit's weights.
+
+and a fit worse than the target is *spliced*: width node by width node, the
+weighted lobe's node replaces the fit's where that lowers the largest error
+around the node (the node and the intervals either side, at the views the
+fitter measures at, between its view nodes too).  The variant ships the
+candidate with the smallest measured error; a variant whose shipped data
+has no fitted node is "not fitted".
+
+Reproducible like the fitter (no randomness beyond :func:`.mixtures.measure`'s
+seeded widths).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import mixtures as M
+
+VIEWS_DEG = (0, 20, 40, 55, 65, 70, 75, 80, 85)  # as mixtures.measure
+TARGET = 0.025  # the issue's bound (addon.core.formulas.models.FIT_BOUND)
+
+
+def lobe_member(target: M.Target) -> int:
+    """The member the single lobe uses."""
+    if target.members[0] == "ashikhmin_shirley" or "trowbridge" in target.key:
+        return 0
+    return 1
+
+
+def _lobe_fit(target, weights):
+    nodes = M.width_nodes(target)
+    fit = M.Fit(target, np.asarray(nodes, float), np.zeros((len(nodes), len(target.members))),
+                weights, np.zeros(len(nodes)))
+    fit.measured = M.measure(fit)
+    return fit
+
+
+def constant_lobe(target: M.Target) -> M.Fit:
+    """One weight for every view: 1 for a normalised D; for (N.H)^s and
+    cos^s, which peak at 1, the peak of a lobe D/(4 cos cos) at normal
+    incidence, 1/(4 pi alpha^2)."""
+    nodes = M.width_nodes(target)
+    views, _u = M.view_nodes()
+    k = lobe_member(target)
+    weights = np.zeros((len(nodes), len(views), len(target.members)))
+    if target.model in ("phong", "blinn_phong"):
+        weights[:, :, k] = [[4.0 * np.pi * target.equivalent_alpha(float(v)) ** 2]
+                            for v in nodes]
+    else:
+        weights[:, :, k] = 1.0
+    return _lobe_fit(target, weights)
+
+
+def weighted_lobe(target: M.Target) -> M.Fit:
+    """The best weight of the single lobe at every width and view node."""
+    nodes = M.width_nodes(target)
+    views, _u = M.view_nodes()
+    k = lobe_member(target)
+    weights = np.zeros((len(nodes), len(views), len(target.members)))
+    for j, value in enumerate(nodes):
+        alpha = [target.equivalent_alpha(float(value))]
+        previous = None
+        for i in np.argsort(-views):  # from normal incidence out: pulled to the last
+            s = M.samples(target, float(value), float(views[i]))
+            w, _err = M.solve_weights(s, [target.members[k]], alpha, previous=previous)
+            weights[j, i, k] = w[0]
+            previous = w
+    return _lobe_fit(target, weights)
+
+
+class _Window:
+    """The largest error (views and lights up to 70 deg, over the peak) of a
+    fit at a width node and half way to its neighbours; the model's samples
+    are computed once per width and view."""
+
+    def __init__(self, target):
+        self.target = target
+        self.cache = {}
+
+    def samples(self, value, deg):
+        key = (float(value), deg)
+        if key not in self.cache:
+            self.cache[key] = M.samples(self.target, float(value), math.cos(deg * M.DEG))
+        return self.cache[key]
+
+    def error(self, fit, j):
+        nodes = fit.width_values
+        widths = [nodes[j]] + [0.5 * (nodes[j] + nodes[i]) for i in (j - 1, j + 1)
+                               if 0 <= i < len(nodes)]
+        worst = 0.0
+        for value in widths:
+            if value > self.target.soft_max + 1e-12:
+                continue
+            rows = []
+            for deg in VIEWS_DEG:
+                if deg > 70:
+                    continue
+                s = self.samples(value, deg)
+                alphas, w = M.evaluate_series(fit, float(value), math.cos(deg * M.DEG))
+                A, _a = M._block(s, self.target.members, alphas)
+                rows.append((s, A @ w))
+            peak = max(float(s.target[s.fit].max()) for s, _m in rows)
+            worst = max(worst, max(float(np.max(np.abs(m[s.fit] - s.target[s.fit])))
+                                   for s, m in rows) / peak)
+        return worst
+
+
+def splice(fit: M.Fit, lobe: M.Fit, log=print) -> tuple:
+    """``(fit, replaced)``: ``fit`` with the nodes where ``lobe``'s node
+    lowers the error around it (greedy, narrow to wide)."""
+    window = _Window(fit.target)
+    multipliers, weights = fit.multipliers.copy(), fit.weights.copy()
+    current = M.Fit(fit.target, fit.width_values, multipliers, weights, fit.node_errors.copy())
+    replaced = []
+    for j in range(len(fit.width_values)):
+        before = window.error(current, j)
+        trial = M.Fit(fit.target, fit.width_values, multipliers.copy(), weights.copy(),
+                      current.node_errors)
+        trial.multipliers[j], trial.weights[j] = lobe.multipliers[j], lobe.weights[j]
+        after = window.error(trial, j)
+        if after < before:
+            multipliers, weights = trial.multipliers, trial.weights
+            current = M.Fit(fit.target, fit.width_values, multipliers, weights,
+                            current.node_errors)
+            replaced.append(j)
+            log(f"  {fit.target.key}: node {j} the weighted lobe ({before:.4f} -> {after:.4f})")
+    current.measured = M.measure(current)
+    return current, replaced
+
+
+def choose(target: M.Target, fit, log=print) -> tuple:
+    """``(shipped Fit, how)`` for one variant: the candidate of smallest
+    measured error (views and lights up to 70 deg); ``how`` says what it is."""
+    candidates = [(constant_lobe(target), "single lobe"),
+                  (weighted_lobe(target), "single lobe, weighted by view")]
+    if fit is not None:
+        candidates.append((fit, "fitted"))
+        if fit.measured["max_abs_over_peak_70"] > TARGET:
+            spliced, replaced = splice(fit, candidates[1][0], log)
+            if replaced:
+                n = len(fit.width_values)
+                candidates.append((spliced, f"fitted; the weighted single lobe at "
+                                            f"{len(replaced)} of {n} widths"))
+    for c, how in candidates:
+        log(f"  {target.key}: {how}: {c.measured['max_abs_over_peak_70']:.4f}")
+    best, how = min(candidates, key=lambda c: c[0].measured["max_abs_over_peak_70"])
+    if how.startswith("single lobe"):
+        how += ("; no fit has run" if fit is None else
+                f"; the fit measured {fit.measured['max_abs_over_peak_70']:.3g}")
+    return best, how
