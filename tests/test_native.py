@@ -112,8 +112,10 @@ EEVEE_CASES = [c for c in cases_mod.CASES if c.variant in ("default", "preset")
 @pytest.mark.parametrize("case", EEVEE_CASES, ids=lambda c: c.id)
 def test_eevee_exact_and_path_traced(verify, api, case):
     r = _run(verify, api, case, "exact", "eevee", theta_d=(15.0, 30.0))
-    # half-float output and GPU float arithmetic: 3e-3 of the peak
+    # half-float output and GPU float arithmetic: 3e-3 of the peak, on the
+    # pixels EEVEE's screen-space shadow ray does not blacken (<= 1 % of them)
     assert r["max_abs_over_peak"] <= r["tolerance"], r
+    assert r["false_shadow_fraction"] <= 0.01 and r["passed"], r
     r = _run(verify, api, case, "path_traced", "eevee")
     assert r["finite"] and r["lit"]
 

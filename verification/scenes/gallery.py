@@ -290,10 +290,10 @@ def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
             bm = bmesh.new()
             try:
                 try:
-                    bmesh.ops.create_uvsphere(bm, u_segments=48, v_segments=24, radius=radius,
+                    bmesh.ops.create_uvsphere(bm, u_segments=192, v_segments=96, radius=radius,
                                               calc_uvs=True)
                 except TypeError:
-                    bmesh.ops.create_uvsphere(bm, u_segments=48, v_segments=24,
+                    bmesh.ops.create_uvsphere(bm, u_segments=192, v_segments=96,
                                               diameter=radius, calc_uvs=True)
                 for f in bm.faces:
                     f.smooth = True
