@@ -151,6 +151,7 @@ def choose(target: M.Target, fit, log=print) -> tuple:
     candidates = [(constant_lobe(target), "single lobe"),
                   (weighted_lobe(target), "single lobe, weighted by view")]
     if fit is not None:
+        fit.measured = M.measure(fit)  # as measured now (the fit may be older than measure)
         candidates.append((fit, "fitted"))
         if fit.measured["max_abs_over_peak_70"] > TARGET:
             spliced, replaced = splice(fit, candidates[1][0], log)

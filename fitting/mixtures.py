@@ -563,9 +563,13 @@ def measure(fit: Fit, n_random=6, views_deg=(0, 20, 40, 55, 65, 70, 75, 80, 85),
     rng = np.random.default_rng(seed)
     lo, hi = fit.target.domain
     nodes = fit.width_values
-    widths = np.sort(np.concatenate([nodes, 0.5 * (nodes[1:] + nodes[:-1]),
-                                     rng.uniform(lo, hi, n_random)]))
     soft = fit.target.soft_max
+    # the closures' limit (alpha 1) and half way to it from the last node
+    # below it: the widths a midpoint between two nodes across it skips
+    inside = nodes[nodes < soft - 1e-12]
+    edge = [soft, 0.5 * (inside[-1] + soft)] if soft < hi and len(inside) else []
+    widths = np.sort(np.concatenate([nodes, 0.5 * (nodes[1:] + nodes[:-1]),
+                                     rng.uniform(lo, hi, n_random), edge]))
     worst = {"max_abs_over_peak_70": 0.0, "max_abs_over_peak_85": 0.0,
              "albedo_difference_70": 0.0, "albedo_difference_85": 0.0, "beyond_70": 0.0}
     bad = 0

@@ -116,8 +116,9 @@ def test_path_traced_mode(verify, api, case, backend):
         assert math.isfinite(r["max_abs_over_peak"])
         assert r["passed"] is None
     elif r["status"] == "fitted":
-        # the fitter's bound on the largest difference over the peak
-        assert r["max_abs_over_peak"] <= tol
+        # the fitter's bound on the largest difference over the peak, in its
+        # domain (views and lights up to 70 deg); the rest is measured
+        assert r["max_abs_over_peak_fit_domain"] <= tol and r["passed"]
     else:
         # exact closures: float32 rounding (1e-3 leaves room); near: Walter's rational Lambda
         assert r["max_rel_error"] <= tol
@@ -146,3 +147,18 @@ def test_furnace_energy_bound(verify, api, model, params, variant):
     assert c.passed, r
     assert 0.2 < r["max_albedo"]  # it does reflect: a black material would pass trivially
     assert np.isfinite(r["mean_albedo"]).all()
+
+
+@pytest.mark.parametrize("params", [
+    {"distribution": "gaussian", "shadowing": "smith_correlated", "beta": 1.2},
+    {"distribution": "gaussian", "shadowing": "smith_correlated", "beta": 0.05}],
+    ids=["wide", "narrow"])
+def test_a_fitted_variant_holds_its_bound_away_from_the_report_cases(verify, api, params):
+    """A variant the data calls fitted, at widths no report case uses (one of
+    them between width nodes): within the fitter's bound on the gonio,
+    views and lights up to 70 deg, on both backends."""
+    case = cases_mod.Case("microfacet", params, "held-out width")
+    assert case.path_traced_status() == "fitted"
+    for backend in ("osl", "svm"):
+        r = _run(verify, api, case, "path_traced", backend)
+        assert r["max_abs_over_peak_fit_domain"] <= r["tolerance"] == 0.025, r

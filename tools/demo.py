@@ -211,7 +211,8 @@ def run(args):
             f"them), "
             f"path-traced: exact closures {cases_mod.PATH_TRACED_TOLERANCE['exact']:g}, "
             f"near {cases_mod.PATH_TRACED_TOLERANCE['near']:g}, fitted mixtures "
-            f"{cases_mod.PATH_TRACED_TOLERANCE['fitted']:g} of the peak, approximations "
+            f"{cases_mod.PATH_TRACED_TOLERANCE['fitted']:g} of the model's peak with view and "
+            f"light within 70 deg (the fitter's domain), approximations "
             f"measured only. Run time {elapsed:.0f} s.")
     pages.write_json(out / "report.json", checks + aniso + lamp_checks)
     from report import docs

@@ -192,6 +192,22 @@ class GonioScene:
         return self.expected(lambda wi, wo, n, t: reference.shade(
             model, wi, wo, normal=n, tangent=t, **params))
 
+    def mirror_peak(self, model, max_angle_deg=70.0, **params):
+        """The model's value with the light in each masked pixel's mirror
+        direction (the peak of a lobe around it), largest over the pixels
+        whose view is within ``max_angle_deg`` of the normal: the scale a
+        fitted mixture's bound refers to, which a narrow lobe's gonio image
+        may not contain (no pixel at the mirror direction)."""
+        from addon import reference
+
+        m = self.mask & (self.cos_o >= math.cos(math.radians(max_angle_deg)))
+        if not m.any():
+            return 0.0
+        n, wo = self.normal[m], self.wo[m]
+        wi = 2.0 * np.sum(n * wo, -1, keepdims=True) * n - wo
+        values = reference.shade(model, wi, wo, normal=n, tangent=self.tangent[m], **params)
+        return float(np.max(values)) * self.strength
+
     def render(self, path=None):
         """Shorthand for :func:`render`."""
         return render(self, path)
