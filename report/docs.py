@@ -256,11 +256,7 @@ def _fidelity_lines(model_id: str) -> list:
         for k in keys:
             m = mixtures.measured(k)
             beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "-"
-            members = ', '.join(mixtures.FITS[k]['members'])
-            if k in mixtures.NOT_FITTED:
-                members = mixtures.shipped(k)
-            elif mixtures.shipped(k) != "fitted":
-                members += f" ({mixtures.shipped(k)})"
+            members = mixtures.members_text(k)
             lines.append(f"| `{k}` | {members} | "
                          f"{m['max_abs_over_peak_70']:.3f} | {m['max_abs_over_peak_85']:.3f} | "
                          f"{m['albedo_difference_70']:.3f} | {m['albedo_difference_85']:.3f} | "

@@ -183,13 +183,9 @@ def fits_table_html():
             "<th>beyond α 1</th><th>status</th></tr>"]
     for key, d in mixtures.FITS.items():
         m = d["measured"]
-        status = "fitted" if m["max_abs_over_peak_70"] <= models.FIT_BOUND else "approx"
+        status = models.fit_status(key)
         beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "—"
-        members = ", ".join(d["members"])
-        if key in mixtures.NOT_FITTED:
-            members = mixtures.shipped(key)
-        elif mixtures.shipped(key) != "fitted":
-            members += f" ({mixtures.shipped(key)})"
+        members = mixtures.members_text(key)
         rows.append(f"<tr><td>{escape(key)}</td><td>{escape(members)}</td>"
                     f"<td class=\"num\">{m['max_abs_over_peak_70']:.3f}</td>"
                     f"<td class=\"num\">{m['max_abs_over_peak_85']:.3f}</td>"

@@ -195,7 +195,7 @@ def test_fitted_status_follows_the_fitters_measurement():
     data = _data()
     for key, d in data.FITS.items():
         m = d["measured"]["max_abs_over_peak_70"]
-        status = formulas._fit_status(key)
+        status = formulas.fit_status(key)
         assert status == ("fitted" if m <= formulas.FIT_BOUND else "approx"), key
 
 

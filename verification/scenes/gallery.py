@@ -121,15 +121,10 @@ def build_gallery(api, *, resolution=(800, 160), samples=24, denoise=True, balls
     """Build the gallery scene; materials come from ``api.add_model(...,
     mode="path_traced")``."""
     bpy = common.import_bpy()
-    import bmesh
 
     w, h = resolution
     n = len(balls)
-    scene = common.new_scene(name)
-    common.configure_cycles(scene, samples=samples, max_bounces=4, filter_width=1.5, osl=True)
-    scene.cycles.use_denoising = bool(denoise)
-    common.set_linear_exr_output(scene, (w, h))
-    api.enable_osl(scene)
+    scene = _scene(api, name, resolution, samples, denoise)
     _studio_world(scene)
 
     spacing = 1.0
@@ -156,34 +151,9 @@ def build_gallery(api, *, resolution=(800, 160), samples=24, denoise=True, balls
     labels, materials = [], [label_mat]
     for i, (label, model, params) in enumerate(balls):
         x = (i - (n - 1) / 2.0) * spacing
-        mat = bpy.data.materials.new(f"{name}_{i}_{model}")
-        if bpy.app.version < (5, 0):
-            mat.use_nodes = True
-        api.add_model(mat, model, mode="path_traced", **params)
-        mat.cycles.emission_sampling = 'NONE'
+        mat, _node = _model_material(api, f"{name}_{i}_{model}", model, "path_traced", params)
         materials.append(mat)
-        mesh = bpy.data.meshes.new(f"{name}_ball_{i}")
-        bm = bmesh.new()
-        try:
-            try:
-                bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, radius=radius,
-                                          calc_uvs=True)
-            except TypeError:
-                bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, diameter=radius,
-                                          calc_uvs=True)
-            for f in bm.faces:
-                f.smooth = True
-            bm.to_mesh(mesh)
-        finally:
-            bm.free()
-        if not mesh.uv_layers:
-            mesh.uv_layers.new(name="UVMap")
-        mesh.uv_layers[0].name = "UVMap"
-        mesh.materials.append(mat)
-        ball = bpy.data.objects.new(f"{name}_ball_{i}", mesh)
-        ball.location = (x, 0.0, 0.0)
-        ball.rotation_euler = (0.0, 25.0 * DEG, 0.0)  # tilt the tangent field a little
-        scene.collection.objects.link(ball)
+        _ball(scene, f"{name}_ball_{i}", mat, (x, 0.0, 0.0), radius, segments=(64, 32))
 
         curve = bpy.data.curves.new(f"{name}_label_{i}", 'FONT')
         curve.body = label
@@ -246,11 +216,7 @@ def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
 
     w, h = resolution
     n = len(balls)
-    scene = common.new_scene(name)
-    common.configure_cycles(scene, samples=samples, max_bounces=4, filter_width=1.5, osl=True)
-    scene.cycles.use_denoising = bool(denoise)
-    common.set_linear_exr_output(scene, (w, h))
-    api.enable_osl(scene)
+    scene = _scene(api, name, resolution, samples, denoise)
     common.set_world_background(scene, 0.35, (0.55, 0.7, 1.0))
 
     spacing = 1.0
@@ -272,7 +238,6 @@ def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
     radius = 0.4
     label_mat = _label_material(name + "_label")
     materials, labels = [label_mat], []
-    import bmesh
     for r, (row_label, mode) in enumerate(MODES):
         z = (1 - r) * 1.05
         txt = _text(bpy, f"{name}_row_{r}", row_label, label_mat,
@@ -280,33 +245,11 @@ def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
         scene.collection.objects.link(txt)
         for i, (label, model, params) in enumerate(balls):
             x = (i - (n - 1) / 2.0) * spacing
-            mat = bpy.data.materials.new(f"{name}_{mode}_{i}_{model}")
-            if bpy.app.version < (5, 0):
-                mat.use_nodes = True
-            node = api.add_model(mat, model, mode=mode, **params)
-            mat.cycles.emission_sampling = 'NONE'
+            mat, node = _model_material(api, f"{name}_{mode}_{i}_{model}", model, mode, params)
             materials.append(mat)
-            mesh = bpy.data.meshes.new(f"{name}_ball_{r}_{i}")
-            bm = bmesh.new()
-            try:
-                try:
-                    bmesh.ops.create_uvsphere(bm, u_segments=192, v_segments=96, radius=radius,
-                                              calc_uvs=True)
-                except TypeError:
-                    bmesh.ops.create_uvsphere(bm, u_segments=192, v_segments=96,
-                                              diameter=radius, calc_uvs=True)
-                for f in bm.faces:
-                    f.smooth = True
-                bm.to_mesh(mesh)
-            finally:
-                bm.free()
-            if not mesh.uv_layers:
-                mesh.uv_layers.new(name="UVMap")
-            mesh.materials.append(mat)
-            ball = bpy.data.objects.new(f"{name}_ball_{r}_{i}", mesh)
-            ball.location = (x, 0.0, z)
-            ball.rotation_euler = (0.0, 25.0 * DEG, 0.0)
-            scene.collection.objects.link(ball)
+            # fine facets: Kajiya-Kay's lamps behind the surface are shadowed by
+            # the body, with one step per facet row at the terminator
+            _ball(scene, f"{name}_ball_{r}_{i}", mat, (x, 0.0, z), radius, segments=(192, 96))
             if mode != "path_traced":
                 api.bind_light(node, sun_obj, point_obj)
             if r == len(MODES) - 1:
@@ -317,6 +260,61 @@ def build_modes_gallery(api, *, resolution=(720, 400), samples=32, denoise=True,
     api.sync_light_linking()
     return Gallery(scene=scene, labels=labels, resolution=(w, h), samples=samples,
                    materials=materials)
+
+
+def _scene(api, name, resolution, samples, denoise):
+    """A Cycles scene for a gallery: OSL on, bounces, the denoiser if asked."""
+    scene = common.new_scene(name)
+    common.configure_cycles(scene, samples=samples, max_bounces=4, filter_width=1.5, osl=True)
+    scene.cycles.use_denoising = bool(denoise)
+    common.set_linear_exr_output(scene, tuple(resolution))
+    api.enable_osl(scene)
+    return scene
+
+
+def _model_material(api, name, model, mode, params):
+    """``(material, node)``: a material holding ``model`` in ``mode``,
+    not sampled as a lamp."""
+    bpy = common.import_bpy()
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0):
+        mat.use_nodes = True
+    node = api.add_model(mat, model, mode=mode, **params)
+    mat.cycles.emission_sampling = 'NONE'
+    return mat, node
+
+
+def _ball(scene, name, material, location, radius, segments):
+    """A smooth UV sphere (``segments`` = (u, v)) with a "UVMap" layer and
+    ``material``, tilted 25 degrees (so the tangent field is not axis
+    aligned), linked to ``scene``."""
+    bpy = common.import_bpy()
+    import bmesh
+
+    mesh = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    try:
+        u, v = segments
+        try:
+            bmesh.ops.create_uvsphere(bm, u_segments=u, v_segments=v, radius=radius,
+                                      calc_uvs=True)
+        except TypeError:  # older bmesh: the size argument is called diameter
+            bmesh.ops.create_uvsphere(bm, u_segments=u, v_segments=v, diameter=radius,
+                                      calc_uvs=True)
+        for f in bm.faces:
+            f.smooth = True
+        bm.to_mesh(mesh)
+    finally:
+        bm.free()
+    if not mesh.uv_layers:
+        mesh.uv_layers.new(name="UVMap")
+    mesh.uv_layers[0].name = "UVMap"
+    mesh.materials.append(material)
+    ball = bpy.data.objects.new(name, mesh)
+    ball.location = location
+    ball.rotation_euler = (0.0, 25.0 * DEG, 0.0)
+    scene.collection.objects.link(ball)
+    return ball
 
 
 def _text(bpy, name, body, material, location, align="CENTER"):

@@ -47,6 +47,17 @@ def shipped(key: str) -> str:
     return "single lobe" if key in NOT_FITTED else "fitted"
 
 
+def members_text(key: str) -> str:
+    """The variant's closures, in words, as the docs and the report list
+    them: the members of a fit (and what replaced some of its widths), or
+    the single lobe that ships instead."""
+    if key in NOT_FITTED:
+        return shipped(key)
+    members = ", ".join(FITS[key]["members"])
+    how = shipped(key)
+    return members if how == "fitted" else f"{members} ({how})"
+
+
 def width_variable(width: str, value):
     """The fit's width variable of a width parameter's value: beta itself,
     log alpha, log(1 + s)."""
@@ -110,5 +121,5 @@ def nodes(key: str) -> list:
     return [lo + (hi - lo) * i / (n - 1) for i in range(n)]
 
 
-__all__ = ["FITS", "NOT_FITTED", "SHIPPED", "has", "measured", "members", "mixture", "nodes", "shipped",
-           "width_variable"]
+__all__ = ["FITS", "NOT_FITTED", "SHIPPED", "has", "measured", "members", "members_text",
+           "mixture", "nodes", "shipped", "width_variable"]

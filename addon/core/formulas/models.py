@@ -179,7 +179,7 @@ class Phong(Formula):
         return _fitted_lobes("phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
 
     def fidelity(self, enums, caps=ALL_CLOSURES):
-        return "exact" if "phong_ramp" in caps else _fit_status("phong")
+        return "exact" if "phong_ramp" in caps else fit_status("phong")
 
 
 class BlinnPhong(Formula):
@@ -211,10 +211,10 @@ class BlinnPhong(Formula):
         return _fitted_lobes("blinn_phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
 
     def fidelity(self, enums, caps=ALL_CLOSURES):
-        return _fit_status("blinn_phong")
+        return fit_status("blinn_phong")
 
 
-def _fit_status(key):
+def fit_status(key):
     """"fitted" where the shipped data (a fitted mixture or a weighted single
     lobe: fitting/assemble.py) measured within FIT_BOUND, else "approx"."""
     from . import mixtures
@@ -441,7 +441,7 @@ class Microfacet(Formula):
         mode = enums.get("width_mode", "beta")
         native = dist in ("trowbridge_reitz", "beckmann") and mode != "beta"
         key = f"microfacet/{dist}/{sh}/{'alpha' if native else 'beta'}"
-        status = _fit_status(key)
+        status = fit_status(key)
         return "approx" if mode == "alpha_xy" else status
 
 class Ward(Formula):
