@@ -14,7 +14,15 @@ Blinn-Phong, GGX for Trowbridge-Reitz, Beckmann otherwise):
   minimises the largest error there (the fitter's linear programme with one
   member), interpolated over the view like a fit's weights.
 
-and a fit worse than the target is *spliced*: width node by width node, the
+and the fit with its weight series re-solved as the shaders evaluate it
+(:mod:`.polish`: the members' widths kept, the Chebyshev coefficients of the
+weights solved for views between the fitter's, width node by width node),
+where its directional albedo is within the target or at most ALBEDO_SLACK
+further off than the fit's and its error up to 85 deg at most GRAZING_SLACK
+larger (it fits to 70 deg: where it cannot keep the albedo or the grazing
+views it trades them for the shape there, and is not shipped).
+The better of the fit and that one, if still worse than the target, is
+*spliced*: width node by width node, the
 weighted lobe's node replaces the fit's where that lowers the largest error
 around the node (the node and the intervals either side, at the views the
 fitter measures at, between its view nodes too).  The variant ships the
@@ -32,9 +40,13 @@ import math
 import numpy as np
 
 from . import mixtures as M
+from .polish import polish
 
-VIEWS_DEG = (0, 20, 40, 55, 65, 70, 75, 80, 85)  # as mixtures.measure
+VIEWS_DEG = M.MEASURE_VIEWS_DEG
 TARGET = 0.025  # the issue's bound (addon.core.formulas.models.FIT_BOUND)
+ALBEDO_TARGET = 0.01  # the issue's bound on the directional albedo
+ALBEDO_SLACK = 0.002  # a re-solved series may move the albedo this much further off ...
+GRAZING_SLACK = 0.1   # ... and the error up to 85 deg this much
 
 
 def lobe_member(target: M.Target) -> int:
@@ -153,11 +165,21 @@ def choose(target: M.Target, fit, log=print) -> tuple:
     if fit is not None:
         fit.measured = M.measure(fit)  # as measured now (the fit may be older than measure)
         candidates.append((fit, "fitted"))
-        if fit.measured["max_abs_over_peak_70"] > TARGET:
-            spliced, replaced = splice(fit, candidates[1][0], log)
+        polished = polish(fit, log=lambda _msg: None)
+        albedo = polished.measured["albedo_difference_70"]
+        grazing = polished.measured["max_abs_over_peak_85"]
+        if albedo <= max(ALBEDO_TARGET, fit.measured["albedo_difference_70"] + ALBEDO_SLACK) \
+                and grazing <= fit.measured["max_abs_over_peak_85"] + GRAZING_SLACK:
+            candidates.append((polished, "fitted, its weight series re-solved"))
+        else:  # closer in shape, further in albedo or at grazing views: not shipped
+            log(f"  {target.key}: re-solved series {polished.measured['max_abs_over_peak_70']:.4f}"
+                f", albedo {albedo:.4f}, up to 85 deg {grazing:.4f}: not used")
+        base, base_how = min(candidates[2:], key=lambda c: c[0].measured["max_abs_over_peak_70"])
+        if base.measured["max_abs_over_peak_70"] > TARGET:
+            spliced, replaced = splice(base, candidates[1][0], log)
             if replaced:
                 n = len(fit.width_values)
-                candidates.append((spliced, f"fitted; the weighted single lobe at "
+                candidates.append((spliced, f"{base_how}; the weighted single lobe at "
                                             f"{len(replaced)} of {n} widths"))
     for c, how in candidates:
         log(f"  {target.key}: {how}: {c.measured['max_abs_over_peak_70']:.4f}")

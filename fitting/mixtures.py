@@ -552,7 +552,10 @@ def evaluate_series(fit: Fit, value: float, cos_o: float):
     return alphas_from_multipliers(z, fit.target.equivalent_alpha(value)), np.maximum(w, 0.0)
 
 
-def measure(fit: Fit, n_random=6, views_deg=(0, 20, 40, 55, 65, 70, 75, 80, 85), seed=1) -> dict:
+MEASURE_VIEWS_DEG = tuple(range(0, 86, 5))  # every 5 deg: the views measure() checks
+
+
+def measure(fit: Fit, n_random=6, views_deg=MEASURE_VIEWS_DEG, seed=1) -> dict:
     """The mixture as the shaders compute it, between the nodes: largest
     |mixture - model| over the model's peak (views and lights up to 70 deg,
     and up to 85), largest albedo difference (views up to 70 and up to 85

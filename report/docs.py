@@ -26,6 +26,7 @@ README = ROOT / "README.md"
 MODEL_DOCS = ROOT / "docs" / "models"
 MEASURED = MODEL_DOCS / "measured.json"
 BEGIN, END = "<!-- BEGIN models -->", "<!-- END models -->"
+FITS_BEGIN, FITS_END = "<!-- BEGIN fits -->", "<!-- END fits -->"
 
 
 def _value(p, v):
@@ -75,10 +76,30 @@ def render_models() -> str:
     return "\n".join(lines)
 
 
+def render_fits() -> str:
+    """The README's table of the fitted mixtures as the committed data
+    measured them (addon/core/fits/mixtures.py)."""
+    from addon.core.formulas import mixtures
+
+    lines = ["| variant | max \\|Δ\\|/peak, 70° | 85° | albedo, 70° | status | ships |",
+             "|---|---|---|---|---|---|"]
+    for key in mixtures.FITS:
+        m = mixtures.measured(key)
+        beyond = f" (beyond α 1: {m['beyond_70']:.2f})" if m["beyond_70"] else ""
+        lines.append(f"| `{key}` | {m['max_abs_over_peak_70']:.3f}{beyond} | "
+                     f"{m['max_abs_over_peak_85']:.3f} | {m['albedo_difference_70']:.3f} | "
+                     f"{formulas.fit_status(key)} | {mixtures.shipped(key)} |")
+    return "\n".join(lines)
+
+
+def _between(text, begin, end, body):
+    start = text.index(begin) + len(begin)
+    return text[:start] + "\n" + body + "\n" + text[text.index(end):]
+
+
 def render_readme(readme: str) -> str:
-    start = readme.index(BEGIN) + len(BEGIN)
-    end = readme.index(END)
-    return readme[:start] + "\n" + render_models() + "\n" + readme[end:]
+    readme = _between(readme, BEGIN, END, render_models())
+    return _between(readme, FITS_BEGIN, FITS_END, render_fits())
 
 
 # --------------------------------------------------------------------------
@@ -263,8 +284,22 @@ def _fidelity_lines(model_id: str) -> list:
                          f"{beyond} |")
     remains = REMAINS.get(model_id)
     if remains:
-        lines += ["", remains]
+        lines += ["", remains.format(**_remains_numbers())]
     return lines
+
+
+def _remains_numbers() -> dict:
+    """The measured numbers the REMAINS texts quote."""
+    from addon.core.formulas import mixtures
+
+    def m(key):
+        return mixtures.measured(key)["max_abs_over_peak_70"]
+    smith = [m(f"microfacet/{d}/{s}/beta") for d in ("blinn", "gaussian", "trowbridge_reitz")
+             for s in ("smith", "smith_correlated") if mixtures.has(f"microfacet/{d}/{s}/beta")]
+    return {"smith_beta": f"{min(smith):.3f}-{max(smith):.3f}",
+            "beckmann_beta": f"{m('microfacet/beckmann/smith/beta'):.2f}",
+            "blinn_phong": f"{m('blinn_phong'):.3f}",
+            "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.2f}"}
 
 
 REMAINS = {
@@ -274,17 +309,18 @@ REMAINS = {
         "shadowing (G = 1) the lobe grows as 1/cos theta_i toward grazing light; the 1967 "
         "bracket's factors per direction differ from any closure's.  For those the hybrid "
         "mode (exact for the bound lamps, the mixture for the rest) is the exact answer.  "
-        "The separable Smith variants of Blinn, Gaussian and Trowbridge-Reitz in beta measure "
-        "0.034-0.054 (Blinn with the correlated Smith 0.075): at their view nodes they are "
-        "within ~0.02 up to beta ~70 deg; between the view nodes and at the widest beta "
-        "(75-85 deg, where Cycles clamps alpha to 1) they miss 0.025.  The widths given as "
-        "alpha miss it most between alpha 0.76 and 1: the last width node inside the "
-        "closures' range is at 0.76 and the next at 1.32, beyond it (Trowbridge-Reitz with "
-        "Smith 0.12, Beckmann with Smith 0.05, its single lobe).  Beckmann with Smith "
-        "in beta is within 0.025 up to beta ~63 deg, where its m reaches 1; no closure is "
-        "wider (Cycles clamps alpha to 1), so it rises to 0.65 at 85 deg.  Where a fit measured worse than the single lobe of its kind with a "
-        "weight per view, at some widths or everywhere, that lobe ships there (the "
-        "members column says so; fitting/assemble.py)."),
+        "The Smith variants of Blinn, Gaussian and Trowbridge-Reitz in beta measure "
+        "{smith_beta} (the table): at the fitter's width and view nodes they are within "
+        "~0.025 up to beta ~70 deg; between the nodes and at the widest beta (75-85 deg, "
+        "where the members reach alpha 1, Cycles' limit) they miss it.  The widths given as alpha are worst between alpha 0.76 "
+        "and 1: the last width node inside the closures' range is at 0.76 and the next at "
+        "1.32, beyond it.  Beckmann with Smith in beta is within 0.025 up to beta ~63 deg, "
+        "where its m reaches 1; no closure is wider (Cycles clamps alpha to 1), so it rises "
+        "to {beckmann_beta} at 85 deg.  Where a fit measured worse than the single lobe of its "
+        "kind with a weight per view, at some widths or everywhere, that lobe ships there "
+        "(the members column says so; fitting/assemble.py); where re-solving the weights' "
+        "series over the view (fitting/polish.py) lowered the error without moving the "
+        "albedo or the grazing views much further off, that ships."),
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
@@ -297,12 +333,11 @@ REMAINS = {
     "blinn_phong": (
         "Blinn-Phong has no shadowing term: like G = 1, its ratio to every closure depends "
         "on the light direction.  The mixture (an Ashikhmin-Shirley lobe, whose (N.H)^n is "
-        "Blinn's, with GGX, Beckmann and diffuse members) measures 0.10-0.22 of the peak "
-        "for exponents up to ~2000; above, the fit's weights oscillated over the view angle, "
-        "so the four widest nodes (exponents ~3000-10000) carry the Ashikhmin-Shirley lobe "
-        "alone with a weight per view (0.04-0.09 there).  The largest error, 0.218 at "
-        "exponents 2-16, is just over the 0.2 aimed at; the directional albedo is off by up "
-        "to 0.12 at exponents below 3 (wide lobes).  The hybrid mode is exact."),
+        "Blinn's, with GGX, Beckmann and diffuse members) ships with the Ashikhmin-Shirley "
+        "lobe alone, weighted per view, at the four widest nodes (exponents ~3000-10000), "
+        "where the fit's weights oscillated over the view angle.  The largest error, "
+        "{blinn_phong}, is over the 0.2 aimed at; the directional albedo is off by up to "
+        "{blinn_phong_albedo}.  The hybrid mode is exact."),
 }
 
 

@@ -225,3 +225,37 @@ def test_what_each_variant_ships_is_said_and_consistent():
             k = assemble.lobe_member(targets[key])
             others = np.delete(fit.weights, k, axis=-1)
             assert np.all(others == 0.0) and np.all(fit.multipliers == 0.0), key
+
+
+def test_the_cutting_planes_solve_the_whole_linear_programme():
+    """fitting/polish.py solves its minimax programmes on the rows that
+    bind: the optimum of a random minimax fit (many rows, few unknowns) is
+    the whole programme's (HiGHS's tolerance: 1e-7)."""
+    from scipy.optimize import linprog
+
+    from fitting import polish
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(3000, 6))
+    t = A @ rng.normal(size=6) + 0.1 * rng.normal(size=3000)
+    n = A.shape[1]
+    E = np.ones((len(t), 1))
+    A_ub = np.vstack([np.hstack([A, -E]), np.hstack([-A, -E])])
+    b_ub = np.concatenate([t, -t])
+    c = np.r_[np.zeros(n), 1.0]
+    bounds = [(None, None)] * n + [(0, None)]
+    whole = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+    x = polish._cutting_planes(c, A_ub, b_ub, bounds)
+    assert x is not None and whole.status == 0
+    assert x[-1] == pytest.approx(whole.x[-1], abs=1e-7)
+    assert np.max(A_ub @ x - b_ub) <= 1e-9  # feasible for every row, not only the active ones
+
+
+def test_the_re_solved_series_is_measured_at_views_it_was_not_fitted_at():
+    """fitting/polish.py fits the weights' series at views between the ones
+    mixtures.measure checks (the recorded error is not its own objective),
+    but for the domain's ends."""
+    from fitting import polish
+    fitted = set(polish.FIT_VIEWS_DEG)
+    measured = {float(d) for d in M.MEASURE_VIEWS_DEG if d <= 70}
+    assert fitted & measured == {0.0, 70.0}
+    assert len(measured) >= 15  # every 5 deg up to 70

@@ -7,7 +7,8 @@
   is kept in build/fits), optionally ``--only KEY ...``; each variant
   ships the best of its fit and the single lobes of its kind
   (:mod:`fitting.assemble`);
-- ``--collect``: the module from the fits made so far.
+- ``--collect``: the module from the fits made so far (``--collect --only
+  KEY ...``: choose those variants again, keep the others as committed).
 """
 
 from __future__ import annotations
@@ -62,18 +63,32 @@ def _choose(key):
     return shipped, how
 
 
-def collect(jobs=2):
+def collect(jobs=2, only=None):
     """The module from the fits in build/fits: each variant ships the best
     of its fit (spliced with the weighted single lobe where that helps) and
     the single lobes of its kind (:mod:`fitting.assemble`); a fit never
     makes a variant worse than its stand-in.  Variants with no fitted width
-    are listed in ``NOT_FITTED``, what each ships in ``SHIPPED``."""
+    are listed in ``NOT_FITTED``, what each ships in ``SHIPPED``.  With
+    ``only``, those variants are chosen again and the others kept as the
+    committed module has them (which must come from the same fitter)."""
     from concurrent.futures import ProcessPoolExecutor
 
     from fitting import FITS, mixtures
     keys = [t.key for t in mixtures.targets()]
+    todo = keys
+    chosen = {}
+    if only:
+        from addon.core.fits import mixtures as data
+        if data.FITTER != mixtures.fitter_hash():
+            raise SystemExit("the committed mixtures come from another fitter: collect them all")
+        unknown = set(only) - set(keys)
+        if unknown:
+            raise SystemExit(f"no such variants: {sorted(unknown)}")
+        todo = [k for k in keys if k in only]
+        kept = mixtures.load_fits([k for k in keys if k not in only])
+        chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
     with ProcessPoolExecutor(jobs) as pool:
-        chosen = dict(zip(keys, pool.map(_choose, keys)))
+        chosen.update(zip(todo, pool.map(_choose, todo)))
     missing = tuple(k for k in keys if chosen[k][1].startswith("single lobe"))
     shipped = {k: chosen[k][1] for k in keys}
     path = FITS / "mixtures.py"
@@ -89,14 +104,16 @@ def collect(jobs=2):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mixtures", action="store_true", help="also fit the closure mixtures")
-    parser.add_argument("--only", nargs="*", help="fit these mixture keys again (the others: as build/fits has them)")
+    parser.add_argument("--only", nargs="*", help="fit these mixture keys again (the others: as "
+                        "build/fits has them); with --collect, choose only these again (the "
+                        "others: as the committed module has them)")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
     args = parser.parse_args(argv)
     if args.collect:
-        collect(args.jobs)
+        collect(args.jobs, args.only)
         return 0
     from fitting import outputs
     for path, text in outputs().items():
