@@ -318,9 +318,10 @@ REMAINS = {
         "where its m reaches 1; no closure is wider (Cycles clamps alpha to 1), so it rises "
         "to {beckmann_beta} at 85 deg.  Where a fit measured worse than the single lobe of its "
         "kind with a weight per view, at some widths or everywhere, that lobe ships there "
-        "(the members column says so; fitting/assemble.py); where re-solving the weights' "
-        "series over the view (fitting/polish.py) lowered the error without moving the "
-        "albedo or the grazing views much further off, that ships."),
+        "(the members column says so; fitting/assemble.py); the fit with its weights' series "
+        "re-solved over the view (fitting/polish.py) would ship where no width got worse; "
+        "it lowered each variant's worst case (Blinn with correlated Smith 0.075 to 0.040) "
+        "but raised other widths toward it, so none ships today."),
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
