@@ -5,8 +5,8 @@ The fitter (:mod:`.mixtures`) solves the weights at each view node, one
 node at a time, and the shaders sum the Chebyshev series through those
 values: between the view nodes the weights are what the series makes of
 them, and a weight that jumps from one node to the next swings the series
-in between.  Its measurement (:func:`.mixtures.measure`) found most of the
-error of the Smith variants there and half way between width nodes.
+in between.  Its measurement (:func:`.mixtures.measure`) found part of the
+error of the Smith variants there and between width nodes.
 
 :func:`polish` keeps the members' widths of a fit and solves, width node by
 width node, for the series coefficients themselves: one linear programme
@@ -33,6 +33,11 @@ less than NEGLIGIBLE is left as it is.
 
 The programme has ~100,000 rows (lights x views x widths); it is solved by
 cutting planes (:func:`_cutting_planes`): the rows that bind are few.
+
+Measured: it lowers each variant's worst case (Blinn with correlated Smith
+0.075 -> 0.040) but a minimax spreads the error, and 10-15 other widths rise
+toward it; :func:`.assemble.choose` ships it only where no width gets
+worse, and today that is nowhere.
 
 Deterministic (HiGHS, no randomness).
 """
