@@ -42,7 +42,7 @@ import math
 import numpy as np
 
 from . import mixtures as M
-from .polish import polish
+from .polish import SampleCache, polish
 
 VIEWS_DEG = M.MEASURE_VIEWS_DEG
 TARGET = 0.025  # the bound (addon.core.formulas.models.FIT_BOUND)
@@ -107,13 +107,7 @@ class _Window:
 
     def __init__(self, target):
         self.target = target
-        self.cache = {}
-
-    def samples(self, value, deg):
-        key = (float(value), deg)
-        if key not in self.cache:
-            self.cache[key] = M.samples(self.target, float(value), math.cos(deg * M.DEG))
-        return self.cache[key]
+        self.samples = SampleCache(target)
 
     def error(self, fit, j):
         nodes = fit.width_values

@@ -71,8 +71,9 @@ def _cheb_row(deg, n):
     return np.polynomial.chebyshev.chebvander(np.array([_tu(deg)]), n - 1)[0]
 
 
-class _Samples:
-    """The model's samples per (width, view), made once."""
+class SampleCache:
+    """The model's samples per (width, view), made once (also
+    :class:`.assemble._Window`'s)."""
 
     def __init__(self, target):
         self.target = target
@@ -214,7 +215,7 @@ def polish(fit: M.Fit, log=print) -> M.Fit:
     """``fit`` with its weight series re-solved (module docstring); the
     members' widths unchanged; measured."""
     target = fit.target
-    get = _Samples(target)
+    get = SampleCache(target)
     series = fit.weight_series.copy()  # (n_width, K, N)
     nodes = fit.width_values
     for sweep in range(SWEEPS):
