@@ -14,15 +14,15 @@ Blinn-Phong, GGX for Trowbridge-Reitz, Beckmann otherwise):
   minimises the largest error there (the fitter's linear programme with one
   member), interpolated over the view like a fit's weights.
 
-and the fit with its weight series re-solved as the shaders evaluate it
-(:mod:`.polish`: the members' widths kept, the Chebyshev coefficients of the
-weights solved for views between the fitter's, width node by width node),
-where it is no worse than the fit at any width measured (up to 70 deg by at
-most WIDTH_SLACK, up to 85 deg by at most GRAZING_SLACK) and its directional
-albedo is within the target or at most ALBEDO_SLACK further off than the
-fit's.  Its minimax lowers the worst case but spreads the error: other widths
-rise toward it, and the albedo or the grazing views can be traded for the
-shape up to 70 deg; where it does that, it is not shipped.
+and, for the Smith-shadowed variants (:func:`re_solved`), the fit with its
+weight series re-solved as the shaders evaluate it (:mod:`.polish`: the
+members' widths kept, the Chebyshev coefficients of the weights solved for
+views between the fitter's, width node by width node, no width of a node's
+window allowed to err more than it did), where it measures no worse than
+the fit at any width (up to 70 deg by at most WIDTH_SLACK, up to 85 deg by
+at most GRAZING_SLACK: the cap holds at the views it solves at, and the
+measurement is at others) and its directional albedo is within the target
+or at most ALBEDO_SLACK further off than the fit's.
 The better of the fit and that one, if still worse than the target, is
 *spliced*: width node by width node, the
 weighted lobe's node replaces the fit's where that lowers the largest error
@@ -50,6 +50,13 @@ ALBEDO_TARGET = 0.01  # the issue's bound on the directional albedo
 ALBEDO_SLACK = 0.002  # a re-solved series may move the albedo this much further off ...
 GRAZING_SLACK = 0.1   # ... and the error up to 85 deg this much ...
 WIDTH_SLACK = 0.002   # ... and the error up to 70 deg this much, at any width measured
+
+
+def re_solved(target: M.Target) -> bool:
+    """Whether :func:`choose` tries the fit with its weight series re-solved:
+    the Smith-shadowed variants, which the 0.025 bound is for (the others'
+    error is a factor of the light direction no weight carries)."""
+    return target.enums.get("shadowing") in ("smith", "smith_correlated")
 
 
 def lobe_member(target: M.Target) -> int:
@@ -162,21 +169,24 @@ def choose(target: M.Target, fit, log=print) -> tuple:
     if fit is not None:
         fit.measured = M.measure(fit)  # as measured now (the fit may be older than measure)
         candidates.append((fit, "fitted"))
-        polished = polish(fit, log=lambda _msg: None)
-        albedo = polished.measured["albedo_difference_70"]
-        grazing = polished.measured["max_abs_over_peak_85"]
-        # the widths where it is worse than the fit (a minimax spreads the
-        # error: its worst case falls while other widths rise toward it)
-        worse = [a[0] for a, b in zip(fit.measured["per_width"], polished.measured["per_width"])
-                 if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
-        if albedo <= max(ALBEDO_TARGET, fit.measured["albedo_difference_70"] + ALBEDO_SLACK) \
-                and grazing <= fit.measured["max_abs_over_peak_85"] + GRAZING_SLACK \
-                and not worse:
-            candidates.append((polished, "fitted, its weight series re-solved"))
-        else:  # closer in shape, further in albedo or at grazing views: not shipped
-            log(f"  {target.key}: re-solved series {polished.measured['max_abs_over_peak_70']:.4f}"
-                f", albedo {albedo:.4f}, up to 85 deg {grazing:.4f}, worse than the fit at "
-                f"{len(worse)} widths ({', '.join(worse[:4])}): not used")
+        if re_solved(target):
+            polished = polish(fit, log=lambda _msg: None)
+            albedo = polished.measured["albedo_difference_70"]
+            grazing = polished.measured["max_abs_over_peak_85"]
+            # the widths where it is worse than the fit (a minimax spreads the
+            # error: its worst case falls while other widths rise toward it)
+            worse = [a[0] for a, b in zip(fit.measured["per_width"],
+                                          polished.measured["per_width"])
+                     if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
+            if albedo <= max(ALBEDO_TARGET, fit.measured["albedo_difference_70"] + ALBEDO_SLACK) \
+                    and grazing <= fit.measured["max_abs_over_peak_85"] + GRAZING_SLACK \
+                    and not worse:
+                candidates.append((polished, "fitted, its weight series re-solved"))
+            else:  # closer in shape, further in albedo or at grazing views: not shipped
+                log(f"  {target.key}: re-solved series "
+                    f"{polished.measured['max_abs_over_peak_70']:.4f}, albedo {albedo:.4f}, up "
+                    f"to 85 deg {grazing:.4f}, worse than the fit at {len(worse)} widths "
+                    f"({', '.join(worse[:4])}): not used")
         base, base_how = min(candidates[2:], key=lambda c: c[0].measured["max_abs_over_peak_70"])
         if base.measured["max_abs_over_peak_70"] > TARGET:
             spliced, replaced = splice(base, candidates[1][0], log)

@@ -559,8 +559,8 @@ def measure(fit: Fit, n_random=6, views_deg=MEASURE_VIEWS_DEG, seed=1) -> dict:
     """The mixture as the shaders compute it, between the nodes: largest
     |mixture - model| over the model's peak (views and lights up to 70 deg,
     and up to 85), largest albedo difference (views up to 70 and up to 85
-    deg); NaN weights counted.  Widths: the nodes, every midpoint between
-    two nodes and random ones.  The ``*_70`` and albedo figures are over the
+    deg); NaN weights counted.  Widths: the nodes, a quarter, half and
+    three quarters of the way between every two, and random ones.  The ``*_70`` and albedo figures are over the
     closures' range (alpha <= 1: Cycles clamps wider closures); beyond it,
     ``beyond_70``."""
     rng = np.random.default_rng(seed)
@@ -571,8 +571,8 @@ def measure(fit: Fit, n_random=6, views_deg=MEASURE_VIEWS_DEG, seed=1) -> dict:
     # below it: the widths a midpoint between two nodes across it skips
     inside = nodes[nodes < soft - 1e-12]
     edge = [soft, 0.5 * (inside[-1] + soft)] if soft < hi and len(inside) else []
-    widths = np.sort(np.concatenate([nodes, 0.5 * (nodes[1:] + nodes[:-1]),
-                                     rng.uniform(lo, hi, n_random), edge]))
+    between = [nodes[:-1] + t * (nodes[1:] - nodes[:-1]) for t in (0.25, 0.5, 0.75)]
+    widths = np.sort(np.concatenate([nodes, *between, rng.uniform(lo, hi, n_random), edge]))
     worst = {"max_abs_over_peak_70": 0.0, "max_abs_over_peak_85": 0.0,
              "albedo_difference_70": 0.0, "albedo_difference_85": 0.0, "beyond_70": 0.0}
     bad = 0

@@ -288,6 +288,9 @@ def _fidelity_lines(model_id: str) -> list:
     return lines
 
 
+RE_SOLVED = "fitted, its weight series re-solved"  # fitting/assemble.choose's words
+
+
 def _remains_numbers() -> dict:
     """The measured numbers the REMAINS texts quote."""
     from addon.core.formulas import mixtures
@@ -296,7 +299,9 @@ def _remains_numbers() -> dict:
         return mixtures.measured(key)["max_abs_over_peak_70"]
     smith = [m(f"microfacet/{d}/{s}/beta") for d in ("blinn", "gaussian", "trowbridge_reitz")
              for s in ("smith", "smith_correlated") if mixtures.has(f"microfacet/{d}/{s}/beta")]
+    resolved = [k for k in mixtures.SHIPPED if mixtures.shipped(k).startswith(RE_SOLVED)]
     return {"smith_beta": f"{min(smith):.3f}-{max(smith):.3f}",
+            "re_solved": ", ".join(f"`{k}`" for k in resolved) if resolved else "nowhere today",
             "beckmann_beta": f"{m('microfacet/beckmann/smith/beta'):.2f}",
             "blinn_phong": f"{m('blinn_phong'):.3f}",
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.2f}"}
@@ -318,10 +323,10 @@ REMAINS = {
         "where its m reaches 1; no closure is wider (Cycles clamps alpha to 1), so it rises "
         "to {beckmann_beta} at 85 deg.  Where a fit measured worse than the single lobe of its "
         "kind with a weight per view, at some widths or everywhere, that lobe ships there "
-        "(the members column says so; fitting/assemble.py); the fit with its weights' series "
-        "re-solved over the view (fitting/polish.py) would ship where no width got worse; "
-        "it lowered each variant's worst case (Blinn with correlated Smith 0.075 to 0.040) "
-        "but raised other widths toward it, so none ships today."),
+        "(the members column says so; fitting/assemble.py).  The Smith variants' fits were "
+        "also tried with their weights' series re-solved over the view (fitting/polish.py), "
+        "each width capped at the error it had: that ships where, measured, no width got "
+        "worse: {re_solved}."),
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
