@@ -326,7 +326,7 @@ REMAINS = {
         "(the members column says so; fitting/assemble.py).  The Smith variants' fits were "
         "also tried with their weights' series re-solved over the view (fitting/polish.py), "
         "each width capped at the error it had: that ships where, measured, no width got "
-        "worse: {re_solved}."),
+        "worse and the worst case fell: {re_solved}."),
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
