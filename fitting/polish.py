@@ -42,7 +42,8 @@ capped too.
 The programme has ~100,000 rows (lights x views x widths); it is solved by
 cutting planes (:func:`_cutting_planes`): the rows that bind are few.
 :func:`.assemble.choose` tries it for the Smith-shadowed variants and ships
-it where, measured, no width is worse than the fit's.
+it where, measured, no width is worse than the fit's and the worst case
+falls.
 
 Deterministic (HiGHS, no randomness).
 """
