@@ -8,7 +8,7 @@
 #   make test TESTS=tests/test_packaging.py PYTEST_ARGS=-x   a subset, extra pytest options
 #   make zip                   dist/reflection_models-<version>.zip
 #   make demo / make bench     the demo and benchmark scripts
-#   make fit                   the offline fit of the closure mixtures (about 3 h, resumable)
+#   make fit                   the offline fit of the closure mixtures (about 3.5 h, resumable)
 #   make venv                  only create/update the virtual environment
 #   make clean                 remove build/ and dist/ (the venvs stay; see distclean)
 #
@@ -111,7 +111,7 @@ bench: $(STAMP)
 	TMPDIR="$(RUN_TMP)" $(PY) -m tools.bench
 
 # The offline fit of the closure mixtures (numpy and scipy; seeded, so the
-# same code gives the same data): about 3 hours on two cores (the last 35 min
+# same code gives the same data): about 3.5 hours on two cores (the last hour
 # choose what ships for each variant).  Writes
 # addon/core/fits/mixtures.py; `make fit ONLY="key ..."` refits some.
 JOBS ?= 2

@@ -286,10 +286,17 @@ def polish(fit: M.Fit, log=print) -> M.Fit:
                 series[j] = out[0]
                 if sweep == SWEEPS - 1:
                     log(f"  {target.key} node {j}: {out[1]:.4f}")
+    out = with_series(fit, series)
+    out.measured = M.measure(out)
+    return out
+
+
+def with_series(fit: M.Fit, series) -> M.Fit:
+    """``fit`` with the weight series ``series`` (n_width, K, N): its weights
+    at the view nodes, as :class:`.mixtures.Fit` holds them."""
     _views, uv = M.view_nodes(series.shape[2])
     cheb = np.polynomial.chebyshev.chebval
     weights = np.array([[[cheb(u, series[j, k]) for k in range(series.shape[1])] for u in uv]
-                        for j in range(len(nodes))])
-    out = M.Fit(target, nodes, fit.multipliers.copy(), weights, fit.node_errors.copy())
-    out.measured = M.measure(out)
-    return out
+                        for j in range(len(fit.width_values))])
+    return M.Fit(fit.target, fit.width_values, fit.multipliers.copy(), weights,
+                 fit.node_errors.copy())
