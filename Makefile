@@ -6,6 +6,7 @@
 #   make test BLENDER=4.5      run it against bpy 4.5 (Python 3.11) in .venv-4.5
 #   make test-all              both versions, one after the other
 #   make test TESTS=tests/test_packaging.py PYTEST_ARGS=-x   a subset, extra pytest options
+#   make test TEST_JOBS=1      in one process (default: two, a test file each)
 #   make zip                   dist/reflection_models-<version>.zip
 #   make demo / make bench     the demo and benchmark scripts
 #   make fit                   the offline fit of the closure mixtures (about 3.5 h, resumable)
@@ -54,7 +55,7 @@ else
   $(error BLENDER must be 5.2 or 4.5, not "$(BLENDER)")
 endif
 
-REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest matplotlib jinja2 mpmath scipy
+REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest pytest-xdist matplotlib jinja2 mpmath scipy
 REQ_HASH := $(shell printf '%s' '$(PYVER) $(REQUIREMENTS)' | md5sum | cut -c1-12)
 STAMP := $(VENV)/.reflection-models-$(REQ_HASH).stamp
 PY := $(VENV)/bin/python
@@ -66,6 +67,10 @@ PY := $(VENV)/bin/python
 RUN_TMP := $(CURDIR)/build/tmp/run-$(BLENDER)
 TESTS ?= tests
 PYTEST_ARGS ?=
+# The suite runs in TEST_JOBS processes (pytest-xdist), a test file per
+# process at a time (its tests keep their order); 1 runs it in this process.
+TEST_JOBS ?= 2
+XDIST_ARGS := $(if $(filter-out 0 1,$(TEST_JOBS)),-n $(TEST_JOBS) --dist loadfile,-p no:xdist)
 
 .PHONY: test test-all zip demo bench fit venv clean distclean
 
@@ -88,7 +93,7 @@ $(STAMP):
 
 test: $(STAMP)
 	@run=$$(mktemp -d -t reflection-models-test-$(BLENDER).XXXXXX); \
-	TMPDIR="$$run" $(PY) -m pytest $(TESTS) -q $(PYTEST_ARGS); status=$$?; \
+	TMPDIR="$$run" $(PY) -m pytest $(TESTS) -q $(XDIST_ARGS) $(PYTEST_ARGS); status=$$?; \
 	rm -rf "$$run"; exit $$status
 
 test-all:

@@ -9,6 +9,9 @@
 - Tests that need Blender take the session fixture ``bpy`` (never
   ``import bpy`` at module level): it calls :func:`verification.harness.session.prepare`,
   which isolates the user folders first.  Pure numpy tests never load bpy.
+- Under pytest-xdist (``make test`` runs two workers) each worker stages
+  and builds its own zip (``RM_PACKAGE_DIR``: a folder of the run's temp
+  folder), so one worker's rebuild never removes the zip another installs.
 - bpy 4.5 can hang at interpreter exit, so once bpy was imported the session
   ends with ``os._exit`` and the exit status pytest computed.
 """
@@ -29,6 +32,11 @@ try:
     bpy_env.use_bundled_site_packages()
 except RuntimeError:  # bpy not installed: tests that need it fail on the fixture
     pass
+
+_WORKER = os.environ.get("PYTEST_XDIST_WORKER")
+if _WORKER:
+    import tempfile
+    os.environ["RM_PACKAGE_DIR"] = tempfile.mkdtemp(prefix=f"rm-package-{_WORKER}-")
 
 _exit_status = None
 

@@ -12,6 +12,7 @@ installed bpy package without importing bpy.
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -26,6 +27,14 @@ ADDON_DIR = REPO_ROOT / "addon"
 LICENSE = REPO_ROOT / "LICENSE"
 STAGE_ROOT = REPO_ROOT / "build" / "stage"
 DIST_DIR = REPO_ROOT / "dist"
+# RM_PACKAGE_DIR: stage into <it>/stage and build into <it>/dist instead (each
+# parallel test worker builds its own zip: tests/conftest.py)
+PACKAGE_DIR_VARIABLE = "RM_PACKAGE_DIR"
+
+
+def _package_dir(default: Path, sub: str) -> Path:
+    other = os.environ.get(PACKAGE_DIR_VARIABLE)
+    return Path(other) / sub if other else default
 
 _IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.oso", ".*")
 
@@ -71,8 +80,10 @@ def validate(path: str | Path) -> str:
     return run_blender_ext("validate", "--valid-tags", str(valid_tags_file()), str(path))
 
 
-def stage(stage_root: Path = STAGE_ROOT) -> Path:
-    """Lay out the extension source folder; returns ``<stage_root>/<id>``."""
+def stage(stage_root: Path | None = None) -> Path:
+    """Lay out the extension source folder; returns ``<stage_root>/<id>``
+    (default: build/stage, or RM_PACKAGE_DIR's)."""
+    stage_root = stage_root or _package_dir(STAGE_ROOT, "stage")
     manifest = read_manifest()
     dest = stage_root / manifest["id"]
     if dest.exists():
@@ -90,7 +101,7 @@ def stage(stage_root: Path = STAGE_ROOT) -> Path:
 def zip_path() -> Path:
     """Where :func:`build_zip` writes the package."""
     manifest = read_manifest()
-    return DIST_DIR / f"{manifest['id']}-{manifest['version']}.zip"
+    return _package_dir(DIST_DIR, "dist") / f"{manifest['id']}-{manifest['version']}.zip"
 
 
 def build_zip() -> Path:
