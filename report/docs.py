@@ -288,7 +288,8 @@ def _fidelity_lines(model_id: str) -> list:
     return lines
 
 
-RE_SOLVED = "fitted, its weight series re-solved"  # fitting/assemble.choose's words
+RE_SOLVED = "its weight series re-solved"  # fitting/assemble.choose's words
+SETTLED = "a member moved to Cycles' alpha limit"  # ditto
 
 
 def _remains_numbers() -> dict:
@@ -299,9 +300,11 @@ def _remains_numbers() -> dict:
         return mixtures.measured(key)["max_abs_over_peak_70"]
     smith = [m(f"microfacet/{d}/{s}/beta") for d in ("blinn", "gaussian", "trowbridge_reitz")
              for s in ("smith", "smith_correlated") if mixtures.has(f"microfacet/{d}/{s}/beta")]
-    resolved = [k for k in mixtures.SHIPPED if mixtures.shipped(k).startswith(RE_SOLVED)]
+    resolved = [k for k in mixtures.SHIPPED if RE_SOLVED in mixtures.shipped(k)]
+    settled = [k for k in mixtures.SHIPPED if SETTLED in mixtures.shipped(k)]
     return {"smith_beta": f"{min(smith):.3f}-{max(smith):.3f}",
             "re_solved": ", ".join(f"`{k}`" for k in resolved) if resolved else "nowhere today",
+            "settled": ", ".join(f"`{k}`" for k in settled) if settled else "nowhere today",
             "beckmann_beta": f"{m('microfacet/beckmann/smith/beta'):.2f}",
             "blinn_phong": f"{m('blinn_phong'):.3f}",
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.2f}"}
@@ -326,7 +329,12 @@ REMAINS = {
         "(the members column says so; fitting/assemble.py).  The Smith variants' fits were "
         "also tried with their weights' series re-solved over the view (fitting/polish.py), "
         "each width capped at the error it had: that ships where, measured, no width got "
-        "worse and the worst case fell: {re_solved}."),
+        "worse and the worst case fell: {re_solved}.  Where a member reaches Cycles' alpha "
+        "limit (1) at one width node and not at the next, the interpolated width reaches "
+        "the limit just past the narrower node while the weights are still that node's; "
+        "the member is moved to the limit at both nodes (or off it at both), that node's "
+        "weights solved again, where the error between them falls (fitting/clamp.py): "
+        "{settled}."),
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
