@@ -313,7 +313,7 @@ def test_a_re_solved_node_makes_no_width_of_its_window_worse():
     assert out[1] <= before[:len(primary), 0].max() + 1e-5  # the window's error as solved
 
 
-def test_a_member_crossing_the_alpha_limit_between_two_nodes_is_settled():
+def test_a_member_crossing_the_alpha_limit_between_two_nodes_is_settled(monkeypatch):
     """fitting/clamp.py: where a member is at Cycles' alpha limit at one
     width node and below it at the next, the interpolated width reaches the
     limit just past the narrower node while the weights are still that
@@ -336,6 +336,7 @@ def test_a_member_crossing_the_alpha_limit_between_two_nodes_is_settled():
     zk, _off = crossing[(j, j + 1)][0]
     assert M.alphas_from_multipliers([zk], t.equivalent_alpha(float(nodes[j])))[0] == M.ALPHA_MAX
 
+    monkeypatch.setattr(clamp, "SEARCH_ITERATIONS", 4)  # the search's path, not its 40 steps
     settled, moved = clamp.settle(fit, log=lambda _m: None, only={(j, j + 1)})
     assert moved in ([j], [j + 1])
     get = polish.SampleCache(t)
