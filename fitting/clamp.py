@@ -45,6 +45,7 @@ import math
 import numpy as np
 
 from . import mixtures as M
+from .polish import SampleCache
 
 MARGIN = 0.02    # a moved member's log multiple lies this far past the clamp
 MIN_GAIN = 1e-3  # a change is kept where it lowers the error around it by this
@@ -103,9 +104,10 @@ def _interval_widths(fit, j):
     return [v for v in out if v <= soft + 1e-12]
 
 
-def _errors(fit, widths):
+def _errors(fit, widths, get):
     """The largest error over the peak (views and lights up to 70 deg, the
-    views :func:`.mixtures.measure` checks) at each width."""
+    views :func:`.mixtures.measure` checks) at each width; ``get``: the
+    model's samples (a :class:`.polish.SampleCache`)."""
     t = fit.target
     out = []
     for value in widths:
@@ -113,9 +115,8 @@ def _errors(fit, widths):
         for deg in M.MEASURE_VIEWS_DEG:
             if deg > 70:
                 continue
-            c = math.cos(deg * M.DEG)
-            s = M.samples(t, value, c)
-            alphas, w = M.evaluate_series(fit, value, c)
+            s = get(value, deg)
+            alphas, w = M.evaluate_series(fit, value, math.cos(deg * M.DEG))
             A, _a = M._block(s, t.members, alphas)
             rows.append((s, A @ w))
         peak = max(float(s.target[s.fit].max()) for s, _m in rows)
@@ -140,7 +141,7 @@ def _refit(fit, j, changes, views):
     return out
 
 
-def _search(fit, j, held, widths, views):
+def _search(fit, j, held, widths, views, get):
     """``fit`` with node j's members ``held`` ({member: log multiple}) and
     the widths of its other microfacet members chosen by Nelder-Mead, each
     with the node's weights solved again, for the smallest largest error
@@ -154,7 +155,7 @@ def _search(fit, j, held, widths, views):
         return _refit(fit, j, {**held, **dict(zip(free, x))}, views)
 
     def objective(x):
-        return max(_errors(trial(x), widths))
+        return max(_errors(trial(x), widths, get))
 
     res = minimize(objective, fit.multipliers[j][free], method="Nelder-Mead",
                    options=dict(maxiter=SEARCH_ITERATIONS, xatol=2e-3, fatol=2e-5))
@@ -174,22 +175,23 @@ def settle(fit: M.Fit, log=print, only=None) -> tuple:
     current = M.Fit(t, fit.width_values, fit.multipliers.copy(), fit.weights.copy(),
                     fit.node_errors.copy())
     moved = []
+    get = SampleCache(t)
     for (j, i), members in sorted(crossings(fit).items()):
         if only is not None and (j, i) not in only:
             continue
         if j in moved or i in moved:
             continue  # a node already changed: its crossings are not these
         widths = sorted(set(_interval_widths(current, j) + _interval_widths(current, i)))
-        before = max(_errors(current, widths))
+        before = max(_errors(current, widths, get))
         trials = [(j, _refit(current, j, {k: v[0] for k, v in members.items()}, views)),
                   (i, _refit(current, i, {k: v[1] for k, v in members.items()}, views))]
-        errs = [max(_errors(trial, widths)) for _n, trial in trials]
+        errs = [max(_errors(trial, widths, get)) for _n, trial in trials]
         best = int(np.argmin(errs))
         if errs[best] > SEARCH_ABOVE:  # the other members' widths searched too
             n, held = trials[best][0], ({k: v[0] for k, v in members.items()} if best == 0
                                         else {k: v[1] for k, v in members.items()})
-            trials.append((n, _search(trials[best][1], n, held, widths, views)))
-            errs.append(max(_errors(trials[-1][1], widths)))
+            trials.append((n, _search(trials[best][1], n, held, widths, views, get)))
+            errs.append(max(_errors(trials[-1][1], widths, get)))
             log(f"  {t.key}: nodes {j}, {i}: node {n}'s other members searched: "
                 f"{errs[best]:.4f} -> {errs[-1]:.4f}")
             best = int(np.argmin(errs))
