@@ -185,6 +185,11 @@ def _no_worse(new: M.Fit, old: M.Fit) -> bool:
                                                  a["albedo_difference_70"] + ALBEDO_SLACK))
 
 
+def _gain(new: M.Fit, old: M.Fit) -> float:
+    """How much lower ``new``'s worst case (up to 70 deg) is than ``old``'s."""
+    return old.measured["max_abs_over_peak_70"] - new.measured["max_abs_over_peak_70"]
+
+
 def choose(target: M.Target, fit, log=print) -> tuple:
     """``(shipped Fit, how)`` for one variant: the candidate of smallest
     measured error (views and lights up to 70 deg); ``how`` says what it is."""
@@ -195,32 +200,27 @@ def choose(target: M.Target, fit, log=print) -> tuple:
         fit_how = "fitted"
         if re_solved(target):
             settled, moved = settle(fit, log)
-            gain = fit.measured["max_abs_over_peak_70"] - settled.measured["max_abs_over_peak_70"]
-            if moved and _no_worse(settled, fit) and gain >= WIDTH_SLACK:
+            if moved and _no_worse(settled, fit) and _gain(settled, fit) >= WIDTH_SLACK:
                 fit = settled
                 fit_how = (f"fitted, a member moved to Cycles' alpha limit at {len(moved)} of "
                            f"{len(fit.width_values)} widths")
-        candidates.append((fit, fit_how))
-        if re_solved(target):
             polished = polish(fit, log=lambda _msg: None)
-            albedo = polished.measured["albedo_difference_70"]
-            grazing = polished.measured["max_abs_over_peak_85"]
             # the widths where it is worse than the fit (a minimax spreads the
             # error: its worst case falls while other widths rise toward it)
             worse = [a[0] for a, b in zip(fit.measured["per_width"],
                                           polished.measured["per_width"])
                      if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
-            gain = fit.measured["max_abs_over_peak_70"] - polished.measured["max_abs_over_peak_70"]
-            if albedo <= max(ALBEDO_TARGET, fit.measured["albedo_difference_70"] + ALBEDO_SLACK) \
-                    and grazing <= fit.measured["max_abs_over_peak_85"] + GRAZING_SLACK \
-                    and not worse and gain >= WIDTH_SLACK:
+            gain = _gain(polished, fit)
+            if _no_worse(polished, fit) and not worse and gain >= WIDTH_SLACK:
                 candidates.append((polished, f"{fit_how}, its weight series re-solved"))
             else:  # closer in shape, further in albedo or at grazing views: not shipped
                 log(f"  {target.key}: re-solved series "
                     f"{polished.measured['max_abs_over_peak_70']:.4f} (the fit's worst case "
-                    f"lower by {gain:.4f}), albedo {albedo:.4f}, up to 85 deg {grazing:.4f}, "
-                    f"worse than the fit at {len(worse)} widths ({', '.join(worse[:4])}): "
-                    "not used")
+                    f"lower by {gain:.4f}), albedo "
+                    f"{polished.measured['albedo_difference_70']:.4f}, up to 85 deg "
+                    f"{polished.measured['max_abs_over_peak_85']:.4f}, worse than the fit at "
+                    f"{len(worse)} widths ({', '.join(worse[:4])}): not used")
+        candidates.insert(2, (fit, fit_how))
         base, base_how = min(candidates[2:], key=lambda c: c[0].measured["max_abs_over_peak_70"])
         if base.measured["max_abs_over_peak_70"] > TARGET:
             spliced, replaced = splice(base, candidates[1][0], log)
