@@ -54,7 +54,7 @@ import math
 import numpy as np
 
 from . import mixtures as M
-from .clamp import settle
+from .clamp import settle, window_errors
 from .polish import SampleCache, polish
 
 VIEWS_DEG = M.MEASURE_VIEWS_DEG
@@ -133,22 +133,8 @@ class _Window:
         nodes = fit.width_values
         widths = [nodes[j]] + [0.5 * (nodes[j] + nodes[i]) for i in (j - 1, j + 1)
                                if 0 <= i < len(nodes)]
-        worst = 0.0
-        for value in widths:
-            if value > self.target.soft_max + 1e-12:
-                continue
-            rows = []
-            for deg in VIEWS_DEG:
-                if deg > 70:
-                    continue
-                s = self.samples(value, deg)
-                alphas, w = M.evaluate_series(fit, float(value), math.cos(deg * M.DEG))
-                A, _a = M._block(s, self.target.members, alphas)
-                rows.append((s, A @ w))
-            peak = max(float(s.target[s.fit].max()) for s, _m in rows)
-            worst = max(worst, max(float(np.max(np.abs(m[s.fit] - s.target[s.fit])))
-                                   for s, m in rows) / peak)
-        return worst
+        widths = [float(v) for v in widths if v <= self.target.soft_max + 1e-12]
+        return max(window_errors(fit, widths, self.samples), default=0.0)
 
 
 def splice(fit: M.Fit, lobe: M.Fit, log=print) -> tuple:

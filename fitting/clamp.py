@@ -104,7 +104,7 @@ def _interval_widths(fit, j):
     return [v for v in out if v <= soft + 1e-12]
 
 
-def _errors(fit, widths, get):
+def window_errors(fit, widths, get):
     """The largest error over the peak (views and lights up to 70 deg, the
     views :func:`.mixtures.measure` checks) at each width; ``get``: the
     model's samples (a :class:`.polish.SampleCache`)."""
@@ -155,7 +155,7 @@ def _search(fit, j, held, widths, views, get):
         return _refit(fit, j, {**held, **dict(zip(free, x))}, views)
 
     def objective(x):
-        return max(_errors(trial(x), widths, get))
+        return max(window_errors(trial(x), widths, get))
 
     res = minimize(objective, fit.multipliers[j][free], method="Nelder-Mead",
                    options=dict(maxiter=SEARCH_ITERATIONS, xatol=2e-3, fatol=2e-5))
@@ -182,16 +182,16 @@ def settle(fit: M.Fit, log=print, only=None) -> tuple:
         if j in moved or i in moved:
             continue  # a node already changed: its crossings are not these
         widths = sorted(set(_interval_widths(current, j) + _interval_widths(current, i)))
-        before = max(_errors(current, widths, get))
+        before = max(window_errors(current, widths, get))
         trials = [(j, _refit(current, j, {k: v[0] for k, v in members.items()}, views)),
                   (i, _refit(current, i, {k: v[1] for k, v in members.items()}, views))]
-        errs = [max(_errors(trial, widths, get)) for _n, trial in trials]
+        errs = [max(window_errors(trial, widths, get)) for _n, trial in trials]
         best = int(np.argmin(errs))
         if errs[best] > SEARCH_ABOVE:  # the other members' widths searched too
             n, held = trials[best][0], ({k: v[0] for k, v in members.items()} if best == 0
                                         else {k: v[1] for k, v in members.items()})
             trials.append((n, _search(trials[best][1], n, held, widths, views, get)))
-            errs.append(max(_errors(trials[-1][1], widths, get)))
+            errs.append(max(window_errors(trials[-1][1], widths, get)))
             log(f"  {t.key}: nodes {j}, {i}: node {n}'s other members searched: "
                 f"{errs[best]:.4f} -> {errs[-1]:.4f}")
             best = int(np.argmin(errs))
