@@ -55,7 +55,7 @@ else
   $(error BLENDER must be 5.2 or 4.5, not "$(BLENDER)")
 endif
 
-REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest pytest-xdist matplotlib jinja2 mpmath scipy
+REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest pytest-xdist matplotlib jinja2 mpmath scipy highspy
 REQ_HASH := $(shell printf '%s' '$(PYVER) $(REQUIREMENTS)' | md5sum | cut -c1-12)
 STAMP := $(VENV)/.reflection-models-$(REQ_HASH).stamp
 PY := $(VENV)/bin/python

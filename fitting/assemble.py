@@ -41,7 +41,13 @@ weighted lobe's node replaces the fit's where that lowers the largest error
 around the node (the node and the intervals either side, at the views the
 fitter measures at, between its view nodes too).  The variant ships the
 candidate with the smallest measured error; a variant whose shipped data
-has no fitted node is "not fitted".
+has no fitted node is "not fitted".  Last (:func:`finish`), a Smith variant
+still over the target, or over the albedo target, has the weight series of
+the nodes around its worst widths solved together (:mod:`.joint`), which
+ships under the re-solve's rules (no width worse by more than WIDTH_SLACK
+up to 70 deg or GRAZING_SLACK up to 85, the albedo within the target or no
+further off by more than ALBEDO_SLACK) where it lowers the worst case by
+WIDTH_SLACK or brings the albedo within the target.
 
 Reproducible like the fitter (no randomness beyond :func:`.mixtures.measure`'s
 seeded widths).
@@ -54,6 +60,7 @@ import math
 import numpy as np
 
 from . import mixtures as M
+from . import joint
 from .clamp import settle, window_errors
 from .polish import SampleCache, polish
 
@@ -176,6 +183,45 @@ def _gain(new: M.Fit, old: M.Fit) -> float:
     return old.measured["max_abs_over_peak_70"] - new.measured["max_abs_over_peak_70"]
 
 
+JOINT = "neighbouring nodes' series re-solved together"  # what finish adds to ``how``
+
+
+def finish(fit: M.Fit, how: str, log=print) -> tuple:
+    """``(fit, how)``, or the fit with the weight series of the nodes around
+    its worst widths solved together (:mod:`.joint`) where that measures no
+    worse (:func:`_no_worse`, and no width worse than WIDTH_SLACK up to 70
+    deg or GRAZING_SLACK up to 85) and lowers the worst case by WIDTH_SLACK
+    or brings the directional albedo within the target; where the programme's
+    widths were allowed to rise by RISE and some measured width rose by more
+    than WIDTH_SLACK, solved again with no rise allowed (NO_RISE)."""
+    if JOINT in how:
+        return fit, how
+    m = fit.measured
+    if m["max_abs_over_peak_70"] <= TARGET and m["albedo_difference_70"] <= ALBEDO_TARGET:
+        return fit, how
+    for rise in (joint.RISE, joint.NO_RISE):
+        solved = joint.solve(fit, log=lambda _msg: None, rise=rise)
+        if solved is None:
+            return fit, how
+        worse = [f"{a[0]} ({a[1]:.4f} -> {b[1]:.4f}, up to 85 deg {a[2]:.4f} -> {b[2]:.4f})"
+                 for a, b in zip(m["per_width"], solved.measured["per_width"])
+                 if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
+        n = solved.measured
+        albedo_in = n["albedo_difference_70"] <= ALBEDO_TARGET < m["albedo_difference_70"]
+        if _no_worse(solved, fit) and not worse and (_gain(solved, fit) >= WIDTH_SLACK
+                                                      or albedo_in):
+            log(f"  {fit.target.key}: {JOINT} (rise {rise}): {m['max_abs_over_peak_70']:.4f} -> "
+                f"{n['max_abs_over_peak_70']:.4f} (the programme's optimum "
+                f"{solved.programme_worst:.4f}), albedo {m['albedo_difference_70']:.4f} -> "
+                f"{n['albedo_difference_70']:.4f}")
+            return solved, f"{how}, {JOINT}"
+        log(f"  {fit.target.key}: {JOINT} (rise {rise}): {n['max_abs_over_peak_70']:.4f} (the "
+            f"programme's optimum {solved.programme_worst:.4f}), albedo "
+            f"{n['albedo_difference_70']:.4f}, worse at {len(worse)} widths "
+            f"({', '.join(worse[:3])}): not used")
+    return fit, how
+
+
 def choose(target: M.Target, fit, log=print) -> tuple:
     """``(shipped Fit, how)`` for one variant: the candidate of smallest
     measured error (views and lights up to 70 deg); ``how`` says what it is."""
@@ -217,6 +263,8 @@ def choose(target: M.Target, fit, log=print) -> tuple:
     for c, how in candidates:
         log(f"  {target.key}: {how}: {c.measured['max_abs_over_peak_70']:.4f}")
     best, how = min(candidates, key=lambda c: c[0].measured["max_abs_over_peak_70"])
+    if re_solved(target) and not how.startswith("single lobe"):
+        best, how = finish(best, how, log)
     if how.startswith("single lobe"):
         how += ("; no fit has run" if fit is None else
                 f"; the fit measured {fit.measured['max_abs_over_peak_70']:.3g}")

@@ -8,7 +8,9 @@
   ships the best of its fit and the single lobes of its kind
   (:mod:`fitting.assemble`);
 - ``--collect``: the module from the fits made so far (``--collect --only
-  KEY ...``: choose those variants again, keep the others as committed).
+  KEY ...``: choose those variants again, keep the others as committed);
+- ``--finish``: the choice's last step (the joint re-solve,
+  :func:`fitting.assemble.finish`) applied to the committed module.
 """
 
 from __future__ import annotations
@@ -73,7 +75,7 @@ def collect(jobs=2, only=None):
     committed module has them (which must come from the same fitter)."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from fitting import FITS, mixtures
+    from fitting import mixtures
     keys = [t.key for t in mixtures.targets()]
     todo = keys
     chosen = {}
@@ -89,6 +91,50 @@ def collect(jobs=2, only=None):
         chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
     with ProcessPoolExecutor(jobs) as pool:
         chosen.update(zip(todo, pool.map(_choose, todo)))
+    _write(chosen, keys)
+
+
+def _finish(key):
+    """One committed variant with :func:`fitting.assemble.finish` applied."""
+    from addon.core.fits import mixtures as data
+    from fitting import assemble, mixtures
+    fit = mixtures.load_fits([key])[key]
+    fit.measured = mixtures.measure(fit)
+    lines = []
+    out = assemble.finish(fit, data.SHIPPED[key], log=lines.append)
+    print("\n".join(lines + [f"{key}: ships {out[1]}: "
+                              f"{out[0].measured['max_abs_over_peak_70']:.4f}"]), flush=True)
+    return out
+
+
+def finish(jobs=2, only=None):
+    """The committed module with the last step of the choice
+    (:func:`fitting.assemble.finish`, the joint re-solve of the Smith
+    variants) applied to the variants ``only`` (default: every Smith
+    variant not yet through it), the others kept: what ``collect`` makes
+    from fits collected before that step existed."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from addon.core.fits import mixtures as data
+    from fitting import assemble, mixtures
+    if data.FITTER != mixtures.fitter_hash():
+        raise SystemExit("the committed mixtures come from another fitter: collect them all")
+    targets = {t.key: t for t in mixtures.targets()}
+    keys = list(targets)
+    unknown = set(only or ()) - set(keys)
+    if unknown:
+        raise SystemExit(f"no such variants: {sorted(unknown)}")
+    todo = only or [k for k in keys if assemble.re_solved(targets[k])
+                    and not data.SHIPPED[k].startswith("single lobe")]
+    kept = mixtures.load_fits([k for k in keys if k not in todo])
+    chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
+    with ProcessPoolExecutor(jobs) as pool:
+        chosen.update(zip(todo, pool.map(_finish, todo)))
+    _write(chosen, keys)
+
+
+def _write(chosen, keys):
+    from fitting import FITS, mixtures
     missing = tuple(k for k in keys if chosen[k][1].startswith("single lobe"))
     shipped = {k: chosen[k][1] for k in keys}
     path = FITS / "mixtures.py"
@@ -108,12 +154,18 @@ def main(argv=None) -> int:
                         "build/fits has them); with --collect, choose only these again (the "
                         "others: as the committed module has them)")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--finish", action="store_true",
+                        help="apply the choice's last step (the joint re-solve) to the committed "
+                             "mixtures (--only: to these variants)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
     args = parser.parse_args(argv)
     if args.collect:
         collect(args.jobs, args.only)
+        return 0
+    if args.finish:
+        finish(args.jobs, args.only)
         return 0
     from fitting import outputs
     for path, text in outputs().items():

@@ -1,0 +1,291 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Re-solving every width node's weight series at once.
+
+:mod:`.polish` re-solves the weight series one width node at a time, each
+against its neighbours' series as they are, under a cap that no width of
+the node's window err more than it does now.  Where the worst width lies
+between two nodes and both have to move together to lower it (Gaussian
+with correlated Smith: 0.0264 at beta 83.6 deg, three quarters of the way
+from the node at 79.4 deg to the one at 85 deg, its weights swinging
+between 0.37 and 1.05 over the view), a node alone cannot lower it without
+raising a width it shares with its other neighbour.
+
+:func:`solve` keeps the members' widths and solves for the Chebyshev
+coefficients of every node's weights together, in one linear programme:
+
+- only the nodes around the widths that err near the 0.025 bound or whose
+  albedo is near the 0.01 bound (:func:`region`) are solved for, the
+  others kept;
+- minimise the largest |mixture - model| over the peak, at every width of
+  a dense set (the nodes and every eighth of the way between two), at views
+  between the ones :func:`.mixtures.measure` checks
+  (:data:`.polish.FIT_VIEWS_DEG`: its views are held out) and lights up to
+  70 deg;
+- plus SPREAD times the mean of the widths' own errors (a pure minimax
+  lets every width rise to the worst one's error);
+- no width errs more than it does now by more than RISE, up to 70 deg, or
+  GRAZING_RISE up to 85 deg (views every degree from 71 to 89 but the
+  measured ones, lights up to 85 deg); widths beyond the closures' reach
+  (alpha > 1, Trowbridge-Reitz in alpha) are held to that and count in
+  nothing else;
+- the directional albedo within ALBEDO_BAND of the model's at every view
+  of the programme, or beyond it at a cost (ALBEDO_WEIGHT per unit);
+- the weights non-negative at every node and every view of
+  :data:`.polish.POSITIVE_DEG` (the shaders interpolate the nodes'
+  weights linearly in the width, so they stay non-negative between).
+
+The present series satisfies every constraint, so the programme is
+feasible and its optimum is no worse than what the fit has at the widths
+and views it solves at; :func:`.assemble.choose` measures the result at the
+held-out widths and views and ships it only where it measures better.
+
+The programme has millions of rows (widths x views x lights); it is solved
+by cutting planes over rows generated from per-(width, view) blocks, the
+rows that bind being few.  Deterministic (HiGHS).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import mixtures as M
+from .polish import FIT_VIEWS_DEG, GRAZING_DEG, POSITIVE_DEG, SampleCache, _cheb_row, with_series
+
+BETWEEN = tuple(k / 8.0 for k in range(1, 8))  # where between two nodes the error counts
+SPREAD = 0.5          # the mean of the widths' own errors, a secondary term
+RISE = 0.001          # a width's error up to 70 deg may rise by this (half what
+                      # assemble.finish allows, measured at other views) ...
+GRAZING_RISE = 0.01   # ... and up to 85 deg by this
+NO_RISE = 1e-5        # no rise, up to HiGHS's tolerances (0 exactly can fail as infeasible)
+ALBEDO_BAND = 0.009   # the albedo's difference allowed at no cost (0.01: the target) ...
+ALBEDO_WEIGHT = 1.0   # ... and what its excess costs
+ROUNDS = 60           # cutting-plane rounds at most
+ADD_PER_BLOCK = 3     # violated rows added per block and round
+INITIAL_PER_BLOCK = 2  # rows per block the first programme starts from
+REGION = 0.9 * 0.025  # widths erring more than this (near the bound) are worked on ...
+ALBEDO_LEVEL = 0.0098  # ... or whose albedo is further off than this (views to 70 deg)
+
+
+def _widths(fit):
+    nodes = fit.width_values
+    soft = fit.target.soft_max
+    out = {float(v) for v in nodes}
+    for a, b in zip(nodes[:-1], nodes[1:]):
+        out |= {float(a + t * (b - a)) for t in BETWEEN}
+    if soft < nodes[-1]:
+        out.add(float(soft))
+    return sorted(out)
+
+
+class _Blocks:
+    """The programme's error rows, block by block: per (width, view) the
+    matrix of the mixture at its lights as a linear map of the free nodes'
+    coefficients (the other nodes' part moved to the right-hand side),
+    scaled by the width's peak."""
+
+    def __init__(self, fit, series, get, free):
+        target = fit.target
+        nodes = fit.width_values
+        self.K, self.N = series.shape[1], series.shape[2]
+        K, N = self.K, self.N
+        self.widths = [v for v in _widths(fit) if any(M.hats(v, nodes)[j] > 0 for j in free)]
+        self.used = used = sorted(free)
+        col0 = {j: n * K * N for n, j in enumerate(used)}
+        self.n_coef = len(used) * K * N
+        W = len(self.widths)
+        # beyond the closures' reach (alpha 1) a width is only kept from
+        # getting worse: it counts in neither the worst case nor the albedo
+        self.inside = [v <= target.soft_max + 1e-12 for v in self.widths]
+        # columns: coefficients, e70 per width, e85 per width, T, albedo excess
+        self.E70 = self.n_coef
+        self.E85 = self.n_coef + W
+        self.T = self.n_coef + 2 * W
+        self.ALB = self.T + 1
+        self.nv = self.ALB + 1
+        self.blocks = []   # (cols, matrix (L, cols) scaled, target less the fixed part, err column)
+        self.albedo = []   # (width, view, cols, row, target albedo less the fixed part)
+        for w_i, value in enumerate(self.widths):
+            hw = M.hats(value, nodes)
+            js = [int(j) for j in np.nonzero(hw)[0] if j in col0]
+            rest = [int(j) for j in np.nonzero(hw)[0] if j not in col0]
+            cols = np.concatenate([np.arange(col0[j], col0[j] + K * N) for j in js])
+            alphas = M.alphas_from_multipliers(hw @ fit.multipliers,
+                                               target.equivalent_alpha(value))
+            sets = []
+            for deg in FIT_VIEWS_DEG + GRAZING_DEG:
+                s = get(value, deg)
+                A, a = M._block(s, target.members, alphas)
+                T = _cheb_row(deg, N)
+                AT = np.concatenate([hw[j] * (A[:, :, None] * T[None, None, :]).reshape(len(A), K * N)
+                                     for j in js], axis=1)
+                aT = np.concatenate([hw[j] * (a[:, None] * T[None, :]).reshape(K * N) for j in js])
+                w_fixed = sum((hw[j] * (series[j] @ T) for j in rest), np.zeros(K))
+                sets.append((deg, s, AT, aT, s.target - A @ w_fixed,
+                             s.target_albedo - float(a @ w_fixed)))
+            peak70 = max(float(s.target[s.fit].max()) for deg, s, *_ in sets if deg <= 70)
+            peak85 = max(float(s.target.max()) for deg, s, *_ in sets)
+            for deg, s, AT, aT, t, ta in sets:
+                if deg <= 70:
+                    m = s.fit
+                    self.blocks.append((cols, AT[m] / peak70, t[m] / peak70, self.E70 + w_i))
+                self.blocks.append((cols, AT / peak85, t / peak85, self.E85 + w_i))
+                if self.inside[w_i]:
+                    self.albedo.append((w_i, deg, cols, aT, ta))
+
+    def x_of(self, series):
+        x = np.zeros(self.nv)
+        for n, j in enumerate(self.used):
+            x[n * self.K * self.N:(n + 1) * self.K * self.N] = series[j].ravel()
+        return x
+
+    def errors(self, x):
+        """Each width's error up to 70 and up to 85 deg at ``x``'s
+        coefficients, and its largest albedo difference at views up to 70
+        deg (what the 0.01 target is measured at)."""
+        W = len(self.widths)
+        out = np.zeros(2 * W)
+        for cols, Mx, t, e in self.blocks:
+            r = float(np.max(np.abs(Mx @ x[cols] - t)))
+            out[e - self.E70] = max(out[e - self.E70], r)
+        albedo = np.zeros(W)
+        for w, deg, cols, aT, ta in self.albedo:
+            if deg <= 70:
+                albedo[w] = max(albedo[w], abs(float(aT @ x[cols]) - ta))
+        return out[:W], out[W:], albedo
+
+
+def _add_rows(h, rows, upper):
+    """Rows ``rows @ x <= upper`` (a scipy sparse matrix) into HiGHS."""
+    import highspy
+
+    rows = rows.tocsr()
+    n = rows.shape[0]
+    h.addRows(n, np.full(n, -highspy.kHighsInf), np.asarray(upper, float), rows.nnz,
+              rows.indptr[:-1].astype(np.int32), rows.indices.astype(np.int32),
+              rows.data.astype(float))
+
+
+def region(fit: M.Fit, level=REGION, get=None):
+    """The nodes worth solving for: those of every width (of the
+    programme's set) that errs more than ``level`` now, or whose albedo is
+    further off than ALBEDO_LEVEL, and one more on either side."""
+    get = get or SampleCache(fit.target)
+    everything = _Blocks(fit, fit.weight_series, get, range(len(fit.width_values)))
+    e70, _e85, albedo = everything.errors(everything.x_of(fit.weight_series))
+    nodes = fit.width_values
+    free = set()
+    for v, inside, e, a in zip(everything.widths, everything.inside, e70, albedo):
+        if inside and (e > level or a > ALBEDO_LEVEL):
+            for j in np.nonzero(M.hats(v, nodes))[0]:
+                free |= {int(i) for i in (j - 1, j, j + 1) if 0 <= i < len(nodes)}
+    return free
+
+
+def solve(fit: M.Fit, free=None, log=print, rise=RISE):
+    """``fit`` with the weight series of the nodes ``free`` (default:
+    :func:`region`) solved together (module docstring), measured; ``None``
+    where the programme fails or there is nothing to solve.  ``rise``: how
+    much a width's error up to 70 deg may rise (RISE)."""
+    import highspy
+    import scipy.sparse as sp
+
+    target = fit.target
+    series = fit.weight_series.copy()
+    get = SampleCache(target)
+    free = region(fit, get=get) if free is None else set(free)
+    if not free:
+        return None
+    log(f"  {target.key}: joint re-solve of nodes {sorted(free)}")
+    B = _Blocks(fit, series, get, free)
+    K, N, nv = B.K, B.N, B.nv
+    W = len(B.widths)
+    x0 = B.x_of(series)
+    cur70, cur85, _albedo = B.errors(x0)
+
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("random_seed", 0)
+    inf = highspy.kHighsInf
+    lower = np.concatenate([np.full(B.n_coef, -inf), np.zeros(2 * W + 2)])
+    upper = np.concatenate([np.full(B.n_coef, inf), cur70 + rise, cur85 + GRAZING_RISE,
+                            [inf, inf]])
+    h.addVars(nv, lower, upper)
+    c = np.zeros(nv)
+    c[B.T] = 1.0
+    c[B.E70:B.E70 + W] = SPREAD / W
+    c[B.E85:B.E85 + W] = 0.1 * SPREAD / W
+    c[B.ALB] = ALBEDO_WEIGHT
+    h.changeColsCost(nv, np.arange(nv, dtype=np.int32), c)
+
+    # fixed rows: positivity at every used node and view; the albedo band;
+    # each width's error at most T
+    fixed_rows, fixed_rhs = [], []
+    for n, _j in enumerate(B.used):
+        for deg in POSITIVE_DEG:
+            T = _cheb_row(deg, N)
+            for k in range(K):
+                r = np.zeros(nv)
+                r[n * K * N + k * N:n * K * N + (k + 1) * N] = -T
+                fixed_rows.append(r)
+                fixed_rhs.append(0.0)
+    for _w, _deg, cols, aT, ta in B.albedo:
+        for sign in (1.0, -1.0):
+            r = np.zeros(nv)
+            r[cols] = sign * aT
+            r[B.ALB] = -1.0
+            fixed_rows.append(r)
+            fixed_rhs.append(sign * ta + ALBEDO_BAND)
+    for w in np.nonzero(B.inside)[0]:
+        r = np.zeros(nv)
+        r[B.E70 + w], r[B.T] = 1.0, -1.0
+        fixed_rows.append(r)
+        fixed_rhs.append(0.0)
+    _add_rows(h, sp.csr_matrix(np.array(fixed_rows)), fixed_rhs)
+
+    active = [set() for _ in B.blocks]  # per block: (light, sign of the residual)
+
+    def add_violated(x, per_block):
+        mats, rhs = [], []
+        for b, (cols, Mx, t, e) in enumerate(B.blocks):
+            r = Mx @ x[cols] - t
+            v = np.abs(r) - x[e]
+            new = [(int(i), bool(r[i] > 0)) for i in np.argsort(-v)[:per_block]
+                   if v[i] > 1e-7 and (int(i), bool(r[i] > 0)) not in active[b]]
+            if not new:
+                continue
+            active[b].update(new)
+            idx = np.array([i for i, _p in new])
+            sign = np.array([1.0 if p else -1.0 for _i, p in new])
+            rows = np.zeros((len(new), nv))
+            rows[:, cols] = sign[:, None] * Mx[idx]
+            rows[:, e] = -1.0
+            mats.append(sp.csr_matrix(rows))
+            rhs.append(sign * t[idx])
+        if mats:
+            _add_rows(h, sp.vstack(mats), np.concatenate(rhs))
+        return sum(m.shape[0] for m in mats)
+
+    x = x0.copy()
+    x[B.E70:B.E70 + W] = 0.0
+    x[B.E85:B.E85 + W] = 0.0
+    add_violated(x, INITIAL_PER_BLOCK)
+    for rnd in range(ROUNDS):
+        h.run()
+        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+            log(f"  {target.key}: joint programme failed ({h.getModelStatus()})")
+            return None
+        x = np.array(h.getSolution().col_value)
+        added = add_violated(x, ADD_PER_BLOCK)
+        log(f"  {target.key}: joint round {rnd}: worst {x[B.T]:.4f}, {added} rows added")
+        if not added:
+            break
+    else:
+        log(f"  {target.key}: joint programme did not converge in {ROUNDS} rounds")
+        return None
+    out_series = series.copy()
+    for n, j in enumerate(B.used):
+        out_series[j] = x[n * K * N:(n + 1) * K * N].reshape(K, N)
+    out = with_series(fit, out_series)
+    out.measured = M.measure(out)
+    out.programme_worst = float(x[B.T])  # the programme's own optimum, at its widths and views
+    return out
