@@ -136,10 +136,15 @@ def polar_svg(model, params, title, incidence_deg=(30.0, 60.0)):
 # tables, JSON and HTML
 
 def fmt(x, spec=".2e"):
+    """``x`` formatted (``spec``; "tol": a tolerance, at most two significant
+    digits, so 0.025 is not shown as 3e-02)."""
     if x is None:
         return "—"
     if isinstance(x, float) and not math.isfinite(x):
         return str(x)
+    if spec == "tol":
+        m, e = f"{x:.1e}".split("e")
+        return f"{m.rstrip('0').rstrip('.')}e{e}"
     return format(x, spec)
 
 
@@ -153,7 +158,7 @@ def summary_table(checks):
             err, rms, tol = f"A={v['max_albedo']:.3f}", "", fmt(v["tolerance"], ".3f")
         else:
             err, rms, tol = fmt(v["max_rel_error"]), fmt(v["rms_rel_error"]), \
-                fmt(v["tolerance"], ".0e")
+                fmt(v["tolerance"], "tol")
         peak = fmt(v["max_abs_over_peak"]) if "max_abs_over_peak" in v else ""
         lines.append(f"{v['model']:18.18s} {v['variant']:46.46s} {v.get('backend', 'osl'):7s} "
                      f"{v['mode']:11s} "

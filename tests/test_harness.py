@@ -658,3 +658,11 @@ def test_instruction_count_renders_mark_every_frame(bpy, tmp_path):
             expected += [[label, mode, frame, "pre"], [label, mode, frame, "post"]]
     assert marks == expected
     assert (len(bpy.data.materials), len(bpy.data.scenes)) == (n_materials, n_scenes)
+
+
+def test_the_report_shows_a_tolerance_to_its_own_digits():
+    """0.025 (the fitted mixtures' bound) was shown as 3e-02 in the report."""
+    from report.pages import fmt
+    assert fmt(0.025, "tol") == "2.5e-02"
+    assert fmt(1e-4, "tol") == "1e-04" and fmt(3e-3, "tol") == "3e-03"
+    assert fmt(None, "tol") == "—"
