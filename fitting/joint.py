@@ -34,14 +34,19 @@ coefficients of every node's weights together, in one linear programme:
   :data:`.polish.POSITIVE_DEG` (the shaders interpolate the nodes'
   weights linearly in the width, so they stay non-negative between).
 
-The present series satisfies every constraint, so the programme is
-feasible and its optimum is no worse than what the fit has at the widths
-and views it solves at; :func:`.assemble.choose` measures the result at the
-held-out widths and views and ships it only where it measures better.
+Where the present series' weights are non-negative, it satisfies every
+constraint, so the programme is feasible and its optimum is no worse than
+what the fit has at the widths and views it solves at (where they dip
+below 0 the programme may fail: :func:`solve` returns ``None``);
+:func:`.assemble.finish` measures the result at the held-out views and
+ships it only where it measures better.
 
-The programme has millions of rows (widths x views x lights); it is solved
-by cutting planes over rows generated from per-(width, view) blocks, the
-rows that bind being few.  Deterministic (HiGHS).
+The programme has up to millions of rows (widths x views x lights); it is
+solved by cutting planes over rows generated from per-(width, view)
+blocks, the rows that bind being few.  Deterministic (HiGHS's simplex,
+a fixed seed): the same fit gives the same series, but the programme is
+degenerate, so a fit changed in its last digits (a round trip through the
+committed data) can give another series of the same optimum.
 """
 
 from __future__ import annotations
