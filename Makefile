@@ -9,7 +9,7 @@
 #   make test TEST_JOBS=1      in one process (default: two, a test file each)
 #   make zip                   dist/reflection_models-<version>.zip
 #   make demo / make bench     the demo and benchmark scripts
-#   make fit                   the offline fit of the closure mixtures (about 3.5 h, resumable)
+#   make fit                   the offline fit of the closure mixtures (about 4 h, resumable)
 #   make venv                  only create/update the virtual environment
 #   make clean                 remove build/ and dist/ (the venvs stay; see distclean)
 #
@@ -115,9 +115,11 @@ bench: $(STAMP)
 	@mkdir -p "$(RUN_TMP)"
 	TMPDIR="$(RUN_TMP)" $(PY) -m tools.bench
 
-# The offline fit of the closure mixtures (numpy and scipy; seeded, so the
-# same code gives the same data): about 3.5 hours on two cores (the last hour
-# choose what ships for each variant).  Writes
+# The offline fit of the closure mixtures (numpy, scipy and highspy; seeded,
+# so the same code gives the same data): about 3.5 hours on two cores when last
+# run whole, before the steps that settle and jointly re-solve the Smith
+# variants were added (those, run alone, took about half an hour more; the
+# last part chooses what ships for each variant).  Writes
 # addon/core/fits/mixtures.py; `make fit ONLY="key ..."` refits some.
 JOBS ?= 2
 fit: $(STAMP)

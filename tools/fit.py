@@ -3,7 +3,7 @@
 
 - the series coefficients (:mod:`fitting.series`; seconds);
 - with ``--mixtures``, the fitted closure mixtures (:mod:`fitting.mixtures`;
-  about three and a half hours on two cores, resumable: each variant's fit
+  about four hours on two cores, resumable: each variant's fit
   is kept in build/fits), optionally ``--only KEY ...``; each variant
   ships the best of its fit and the single lobes of its kind
   (:mod:`fitting.assemble`);
