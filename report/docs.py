@@ -327,7 +327,9 @@ REMAINS = {
         "bracket's factors per direction differ from any closure's.  For those the hybrid "
         "mode (exact for the bound lamps, the mixture for the rest) is the exact answer.  "
         "The Smith variants of Blinn, Gaussian and Trowbridge-Reitz in beta measure "
-        "{smith_beta} (the table).  Within 0.025 at every width: {within}; over it: "
+        "{smith_beta} (the table).  Within 0.025 at every width: {within} (without "
+        "Fresnel: the bound is for F = 1, and with the model's Fresnel on the members they "
+        "are approx); over it: "
         "{over}.  The separable Smith variants in beta miss it over a range of widths, at "
         "the width nodes themselves (Blinn and Gaussian from beta ~45 deg on, "
         "Trowbridge-Reitz at ~23-71 deg): with the members' widths the fitter chose, the "
@@ -350,10 +352,11 @@ REMAINS = {
         "weights solved again, where the error between them falls (fitting/clamp.py): "
         "{settled}.  Last, where a Smith variant still erred more than 0.025 or its albedo "
         "more than 0.01, the weight series of the nodes around its worst widths were solved "
-        "together in one linear programme (fitting/joint.py: the worst error over dense "
-        "widths and views, no width allowed to rise by more than 0.002, the albedo within "
-        "0.009 at a cost beyond); that ships where the measurement, at widths and views the "
-        "programme did not see, is no worse anywhere and better: {joint}."),
+        "together in one linear programme (fitting/joint.py: the worst error over every "
+        "eighth of each interval, at views between the measured ones; no width allowed to "
+        "rise by more than 0.001, the albedo within 0.009 at a cost beyond); that ships "
+        "where the measurement, at views the programme did not see, is better and no width "
+        "worse by more than 0.002: {joint}."),
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
