@@ -178,6 +178,16 @@ def _no_worse(new: M.Fit, old: M.Fit) -> bool:
                                                  a["albedo_difference_70"] + ALBEDO_SLACK))
 
 
+def _worse_widths(new: M.Fit, old: M.Fit) -> list:
+    """The measured widths where ``new`` errs more than ``old`` by more than
+    WIDTH_SLACK up to 70 deg or GRAZING_SLACK up to 85 deg (a minimax
+    spreads the error: its worst case falls while other widths rise toward
+    it), as "width (old -> new, up to 85 deg old -> new)"."""
+    return [f"{a[0]} ({a[1]:.4f} -> {b[1]:.4f}, up to 85 deg {a[2]:.4f} -> {b[2]:.4f})"
+            for a, b in zip(old.measured["per_width"], new.measured["per_width"])
+            if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
+
+
 def _gain(new: M.Fit, old: M.Fit) -> float:
     """How much lower ``new``'s worst case (up to 70 deg) is than ``old``'s."""
     return old.measured["max_abs_over_peak_70"] - new.measured["max_abs_over_peak_70"]
@@ -203,9 +213,7 @@ def finish(fit: M.Fit, how: str, log=print) -> tuple:
         solved = joint.solve(fit, log=lambda _msg: None, rise=rise)
         if solved is None:
             return fit, how
-        worse = [f"{a[0]} ({a[1]:.4f} -> {b[1]:.4f}, up to 85 deg {a[2]:.4f} -> {b[2]:.4f})"
-                 for a, b in zip(m["per_width"], solved.measured["per_width"])
-                 if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
+        worse = _worse_widths(solved, fit)
         n = solved.measured
         albedo_in = n["albedo_difference_70"] <= ALBEDO_TARGET < m["albedo_difference_70"]
         if _no_worse(solved, fit) and not worse and (_gain(solved, fit) >= WIDTH_SLACK
@@ -237,11 +245,7 @@ def choose(target: M.Target, fit, log=print) -> tuple:
                 fit_how = (f"fitted, a member moved to Cycles' alpha limit at {len(moved)} of "
                            f"{len(fit.width_values)} widths")
             polished = polish(fit, log=lambda _msg: None)
-            # the widths where it is worse than the fit (a minimax spreads the
-            # error: its worst case falls while other widths rise toward it)
-            worse = [a[0] for a, b in zip(fit.measured["per_width"],
-                                          polished.measured["per_width"])
-                     if b[1] > a[1] + WIDTH_SLACK or b[2] > a[2] + GRAZING_SLACK]
+            worse = _worse_widths(polished, fit)
             gain = _gain(polished, fit)
             if _no_worse(polished, fit) and not worse and gain >= WIDTH_SLACK:
                 candidates.append((polished, f"{fit_how}, its weight series re-solved"))
@@ -251,7 +255,7 @@ def choose(target: M.Target, fit, log=print) -> tuple:
                     f"lower by {gain:.4f}), albedo "
                     f"{polished.measured['albedo_difference_70']:.4f}, up to 85 deg "
                     f"{polished.measured['max_abs_over_peak_85']:.4f}, worse than the fit at "
-                    f"{len(worse)} widths ({', '.join(worse[:4])}): not used")
+                    f"{len(worse)} widths ({', '.join(worse[:3])}): not used")
         candidates.insert(2, (fit, fit_how))
         base, base_how = min(candidates[2:], key=lambda c: c[0].measured["max_abs_over_peak_70"])
         if base.measured["max_abs_over_peak_70"] > TARGET:

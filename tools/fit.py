@@ -73,25 +73,9 @@ def collect(jobs=2, only=None):
     are listed in ``NOT_FITTED``, what each ships in ``SHIPPED``.  With
     ``only``, those variants are chosen again and the others kept as the
     committed module has them (which must come from the same fitter)."""
-    from concurrent.futures import ProcessPoolExecutor
-
     from fitting import mixtures
     keys = [t.key for t in mixtures.targets()]
-    todo = keys
-    chosen = {}
-    if only:
-        from addon.core.fits import mixtures as data
-        if data.FITTER != mixtures.fitter_hash():
-            raise SystemExit("the committed mixtures come from another fitter: collect them all")
-        unknown = set(only) - set(keys)
-        if unknown:
-            raise SystemExit(f"no such variants: {sorted(unknown)}")
-        todo = [k for k in keys if k in only]
-        kept = mixtures.load_fits([k for k in keys if k not in only])
-        chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
-    with ProcessPoolExecutor(jobs) as pool:
-        chosen.update(zip(todo, pool.map(_choose, todo)))
-    _write(chosen, keys)
+    _redo(_choose, list(only) if only else keys, keys, jobs)
 
 
 def _finish(key):
@@ -113,23 +97,34 @@ def finish(jobs=2, only=None):
     variants) applied to the variants ``only`` (default: every Smith
     variant not yet through it), the others kept: what ``collect`` makes
     from fits collected before that step existed."""
-    from concurrent.futures import ProcessPoolExecutor
-
     from addon.core.fits import mixtures as data
     from fitting import assemble, mixtures
-    if data.FITTER != mixtures.fitter_hash():
-        raise SystemExit("the committed mixtures come from another fitter: collect them all")
     targets = {t.key: t for t in mixtures.targets()}
-    keys = list(targets)
-    unknown = set(only or ()) - set(keys)
-    if unknown:
-        raise SystemExit(f"no such variants: {sorted(unknown)}")
-    todo = only or [k for k in keys if assemble.re_solved(targets[k])
+    todo = only or [k for k in targets if assemble.re_solved(targets[k])
                     and not data.SHIPPED[k].startswith("single lobe")]
-    kept = mixtures.load_fits([k for k in keys if k not in todo])
-    chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
+    _redo(_finish, todo, list(targets), jobs, committed=True)
+
+
+def _redo(work, todo, keys, jobs, committed=False):
+    """The module with ``work(key) -> (Fit, how)`` for the variants
+    ``todo``, the others kept as the committed module has them (which must
+    then come from the same fitter, as must the module ``work`` starts
+    from where ``committed``)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from fitting import mixtures
+    chosen = {}
+    if committed or set(todo) != set(keys):
+        from addon.core.fits import mixtures as data
+        if data.FITTER != mixtures.fitter_hash():
+            raise SystemExit("the committed mixtures come from another fitter: collect them all")
+        unknown = set(todo) - set(keys)
+        if unknown:
+            raise SystemExit(f"no such variants: {sorted(unknown)}")
+        kept = mixtures.load_fits([k for k in keys if k not in todo])
+        chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
     with ProcessPoolExecutor(jobs) as pool:
-        chosen.update(zip(todo, pool.map(_finish, todo)))
+        chosen.update(zip(todo, pool.map(work, todo)))
     _write(chosen, keys)
 
 
