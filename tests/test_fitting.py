@@ -407,3 +407,23 @@ def test_a_member_crossing_the_alpha_limit_between_two_nodes_is_settled(monkeypa
         a0, w0 = M.evaluate_series(fit, far, math.cos(deg * M.DEG))
         a1, w1 = M.evaluate_series(settled, far, math.cos(deg * M.DEG))
         assert np.array_equal(a0, a1) and np.array_equal(w0, w1)
+
+
+def test_the_reach_of_the_members_finds_an_exact_member():
+    """fitting.limits (what the members can reach at one view): for a model
+    that one member is (Trowbridge-Reitz with height-correlated Smith is
+    Cycles' GGX closure at the model's alpha), the search finds it: the
+    error is float64 round-off, far under the 0.025 it is used to judge
+    (1e-6: the closure's transcription and the reference agree to about
+    1e-12, the linear programme's tolerance is 1e-7 of the peak), the
+    albedo within the band, the GGX member at the model's width."""
+    from fitting import limits
+
+    enums = {"distribution": "trowbridge_reitz", "shadowing": "smith_correlated",
+             "fresnel": "none"}
+    t = M.Target("microfacet/trowbridge_reitz/smith_correlated/beta", "microfacet", enums,
+                  "beta", M.MICROFACET, M.BETA)
+    e, albedo, z = limits.view_optimum(t, 30.0 * M.DEG, 60.0, step=0.5, refine=1)
+    assert e < 1e-6
+    assert albedo <= M.ALBEDO_TOLERANCE + 1e-9
+    assert abs(z[0]) < 1e-3

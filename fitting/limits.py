@@ -1,0 +1,167 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What a mixture of the fitter's members can reach at all, one view at a
+time (``python -m fitting.limits``; about 15 minutes on two cores).
+
+A fitted mixture (:mod:`.mixtures`) gives its members one width per width
+node, the same at every view, and interpolates weights and widths between
+nodes: its error is the best those shapes allow plus what sharing the
+widths over the view and the interpolation cost.  This measures the first
+part alone, where the shipped data misses a target: at one width and one
+view, the members' widths are searched on a grid of their log multiples
+of the equivalent width (every STEP over GRID; members of one kind kept in
+order, as the fitter keeps them), the best REFINE refined by Nelder-Mead,
+the weights of each candidate from the fitter's own linear programme
+(:func:`.mixtures.solve_weights`: the largest |mixture - model|, lights up
+to 70 deg, the directional albedo within its band where it can be).  The
+error is in :func:`.mixtures.measure`'s units: over the largest peak of the
+model at that width, views 0-70 deg.
+
+With widths and weights free at each view, no mixture of these members
+does better there (up to the grid and the refinement: a search, not a
+proof).  So where the largest of these per-view optima is over a target,
+the target is out of the members' reach; where it is under while the
+shipped data is over, what is missing is widths that change with the view,
+which the data's layout (one width per node) does not have.
+
+The numbers the docs quote (report/docs.py REMAINS): the separable Smith
+variants in beta and Blinn-Phong, at their worst widths, views every 10 deg.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import math
+
+import numpy as np
+
+from . import mixtures as M
+
+GRID = (-2.5, 1.5)  # log multiples of the equivalent width searched
+STEP = 0.25
+REFINE = 6          # best grid points refined
+NO_BAND = 10.0      # an albedo band no mixture reaches: the band off
+VIEWS_DEG = tuple(range(0, 71, 10))
+
+
+@contextlib.contextmanager
+def albedo_band(band):
+    old = M.ALBEDO_TOLERANCE
+    M.ALBEDO_TOLERANCE = band
+    try:
+        yield
+    finally:
+        M.ALBEDO_TOLERANCE = old
+
+
+def peak_70(target: M.Target, value: float) -> float:
+    """The model's largest value at this width, views every 5 deg to 70 and
+    lights to 70: :func:`.mixtures.measure`'s denominator."""
+    return max(float(s.target[s.fit].max()) for s in
+               (M.samples(target, value, math.cos(d * M.DEG))
+                for d in M.MEASURE_VIEWS_DEG if d <= 70))
+
+
+def view_optimum(target: M.Target, value: float, view_deg: float, band=M.ALBEDO_TOLERANCE,
+                 step=STEP, refine=REFINE):
+    """``(error, albedo difference, multipliers)``: the best mixture of
+    ``target``'s members at one width and one view, widths and weights
+    free (module docstring); the error over :func:`peak_70`."""
+    from scipy.optimize import minimize
+
+    s = M.samples(target, value, math.cos(view_deg * M.DEG))
+    units = float(s.target[s.fit].max()) / peak_70(target, value)  # the LP's peak is this view's
+    eq = target.equivalent_alpha(value)
+    free = [k for k, m in enumerate(target.members) if m != "diffuse"]
+    same = [(a, b) for a, b in itertools.combinations(free, 2)
+            if target.members[a] == target.members[b]]
+
+    def z_of(y):
+        z = np.zeros(len(target.members))
+        z[free] = y
+        return z
+
+    def solve(y):
+        alphas = M.alphas_from_multipliers(z_of(y), eq)
+        w, e = M.solve_weights(s, target.members, alphas)
+        _A, a = M._block(s, target.members, alphas)
+        return e, abs(float(a @ w) - s.target_albedo)
+
+    def error(y):
+        if any(y[free.index(a)] > y[free.index(b)] - 0.05 for a, b in same):
+            return 10.0
+        return solve(y)[0]
+
+    with albedo_band(band):
+        grid = np.arange(GRID[0], GRID[1] + 1e-9, step)
+        found = sorted((error(np.array(y)), y) for y in itertools.product(grid, repeat=len(free)))
+        best_e, best_y = found[0][0], np.array(found[0][1])
+        for _e, y in found[:refine]:
+            r = minimize(error, np.array(y), method="Nelder-Mead",
+                         options=dict(maxiter=400, xatol=1e-3, fatol=1e-6))
+            if r.fun < best_e:
+                best_e, best_y = float(r.fun), r.x
+        e, albedo = solve(best_y)
+    return e * units, albedo, z_of(best_y)
+
+
+def shipped_error(key: str, value: float, view_deg: float) -> float:
+    """The committed mixture's error at one width and view, in the same units."""
+    fit = M.load_fits([key])[key]
+    t = fit.target
+    c = math.cos(view_deg * M.DEG)
+    s = M.samples(t, value, c)
+    alphas, w = M.evaluate_series(fit, value, c)
+    A, _a = M._block(s, t.members, alphas)
+    return float(np.max(np.abs(A[s.fit] @ w - s.target[s.fit]))) / peak_70(t, value)
+
+
+CASES = (("microfacet/gaussian/smith/beta", (51.4, 79.4)),
+         ("microfacet/blinn/smith/beta", (51.4, 69.6)),
+         ("microfacet/trowbridge_reitz/smith/beta", (29.0, 34.6)),
+         ("blinn_phong", (5.31, 10.66)))
+
+
+def _value(key, shown):
+    return math.log1p(shown) if key == "blinn_phong" else shown * M.DEG
+
+
+def _job(job):
+    key, shown, view, band = job
+    t = {x.key: x for x in M.targets()}[key]
+    value = _value(key, shown)
+    e, albedo, _z = view_optimum(t, value, view, band)
+    return job, e, albedo, shipped_error(key, value, view)
+
+
+def main(jobs=2):
+    from concurrent.futures import ProcessPoolExecutor
+
+    work = [(k, w, v, M.ALBEDO_TOLERANCE) for k, ws in CASES for w in ws for v in VIEWS_DEG]
+    # without the albedo band, where the band is what stands in the way
+    work += [(k, w, v, NO_BAND) for k, ws in CASES for w in ws for v in VIEWS_DEG
+             if k in ("microfacet/trowbridge_reitz/smith/beta", "blinn_phong")]
+    with ProcessPoolExecutor(jobs) as pool:
+        done = list(pool.map(_job, work))
+    print("The best mixture of the fitter's members with widths and weights free at each "
+          "view\n(max |mixture - model| over the model's peak, views 0-70 deg, lights to 70; "
+          f"views {VIEWS_DEG[0]}-{VIEWS_DEG[-1]} every {VIEWS_DEG[1] - VIEWS_DEG[0]} deg)\n")
+    print(f"{'variant':40s} {'width':>6s} {'albedo band':>11s} {'per-view best':>13s} "
+          f"{'at view':>7s} {'its albedo':>10s} {'shipped there':>13s} {'shipped max':>11s}")
+    rows = {}
+    for (key, shown, view, band), e, albedo, shipped in done:
+        rows.setdefault((key, shown, band), []).append((e, view, albedo, shipped))
+    for (key, shown, band), r in rows.items():
+        e, view, albedo, _s = max(r)
+        shipped_there = next(s for ee, vv, _a, s in r if vv == view)
+        print(f"{key:40s} {shown:6g} {_band(band):>11s} {e:13.4f} {view:7.0f} {albedo:10.4f} "
+              f"{shipped_there:13.4f} {max(s for *_x, s in r):11.4f}")
+    return 0
+
+
+def _band(band):
+    return "none" if band >= NO_BAND else f"{band:g}"
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
