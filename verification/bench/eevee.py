@@ -80,10 +80,11 @@ STEADY_FRAMES = 4  # frames after the first whose median is the render without t
 
 
 def _compile_seconds(mat, out_dir, resolution):
-    """The first frame of a fresh EEVEE scene with ``mat`` minus the median
-    of the next STEADY_FRAMES (one frame in two can take a second longer
-    here, so a single second frame is no baseline); negative where that is
-    no more than the spread of those frames (noise, not a compile)."""
+    """``(seconds, isolated)``: the first frame of a fresh EEVEE scene with
+    ``mat`` minus the median of the next STEADY_FRAMES (one frame in two can
+    take a second longer here, so a single second frame is no baseline), and
+    whether that is more than the spread of those frames (else it is noise,
+    not a compile)."""
     from verification import harness as common
     from verification.scenes import bench as bench_scene
     from verification.suites import verify
@@ -105,8 +106,7 @@ def _compile_seconds(mat, out_dir, resolution):
         verify.dispose(SimpleNamespace(scene=scene))
     steady = times[1:]
     extra = times[0] - statistics.median(steady)
-    # below the spread of the frames without a compile, the extra time is noise
-    return extra if extra > max(steady) - min(steady) else -abs(extra)
+    return extra, extra > max(steady) - min(steady)
 
 
 def bench(api, *, resolution=32, rows=ROWS):
@@ -117,38 +117,40 @@ def bench(api, *, resolution=32, rows=ROWS):
         _compile_seconds(_principled("eevee warm-up"), out_dir, resolution)  # loads EEVEE
         base = [_compile_seconds(_principled(f"eevee principled {k}"), out_dir, resolution)
                 for k in range(3)]
-        base_s = statistics.median(base)
+        base_s = statistics.median(seconds for seconds, _isolated in base)
+        base_isolated = sum(isolated for _seconds, isolated in base) >= 2
         for label, model, params in rows:
             row = {"label": label}
             for mode in ("path_traced", "exact"):
                 mat = verify.new_material(f"eevee {label} {mode}")
                 api.add_model(mat, model, mode=mode, **params)
-                seconds = _compile_seconds(mat, out_dir, resolution)
-                row[mode] = seconds / base_s
+                seconds, isolated = _compile_seconds(mat, out_dir, resolution)
                 row[mode + "_s"] = seconds
+                # a ratio only where both the material's and the baseline's compile showed
+                row[mode] = seconds / base_s if isolated and base_isolated else None
             results.append(row)
             print(f"  {label} done", flush=True)
-    return base_s, results
+    return (base_s, base_isolated), results
 
 
-def print_tables(base_s, results, counts):
+def print_tables(base, results, counts):
+    base_s, base_isolated = base
     print(f"\nEEVEE shader compile time relative to a Principled BSDF material "
           f"({base_s:+.2f} s here; software OpenGL), target <= {TARGET_COMPILE:g}x")
-    if base_s <= 0.0:
+    if not base_isolated:
         print("(the Principled material's first frame was not slower than its next ones by "
               "more than their spread: no ratio is a measure)")
     print(f"{'':34s} {'path traced':>18s} {'exact':>18s}")
     for row in results:
         cells = []
         for mode in ("path_traced", "exact"):
-            if base_s <= 0.0 or row[mode + "_s"] <= 0.0:  # no compile seen
+            if row[mode] is None:  # no compile seen (here or in the baseline)
                 cells.append(f"not isolated ({row[mode + '_s']:+.2f}s)")
                 continue
             ok = "yes" if row[mode] <= TARGET_COMPILE else "NO"
             cells.append(f"{row[mode]:5.2f}x {row[mode + '_s']:5.2f}s {ok:>4s}")
         print(f"{row['label']:34.34s} {cells[0]:>18s} {cells[1]:>18s}")
-    if base_s <= 0.0 or any(row[m + "_s"] <= 0.0 for row in results
-                            for m in ("path_traced", "exact")):
+    if any(row[m] is None for row in results for m in ("path_traced", "exact")):
         print("'not isolated': the first frame (of this material or of the baseline) was not "
               f"slower than the median of the next {STEADY_FRAMES} by more than their spread, "
               "so its extra time is no measure of the compile here (software OpenGL under "
@@ -166,8 +168,8 @@ def main(argv=None):
     os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")  # before EEVEE's GL context
     bpy = bpy_env.prepare()
     from addon import api
-    base_s, results = bench(api)
-    print_tables(base_s, results, node_counts())
+    base, results = bench(api)
+    print_tables(base, results, node_counts())
     print(f"(Blender {bpy.app.version_string}; measured, not asserted)")
     return 0
 
