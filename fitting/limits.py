@@ -30,6 +30,7 @@ variants in beta and Blinn-Phong, at their worst widths, views every 10 deg.
 from __future__ import annotations
 
 import contextlib
+import functools
 import itertools
 import math
 
@@ -63,14 +64,16 @@ def peak_70(target: M.Target, value: float) -> float:
 
 
 def view_optimum(target: M.Target, value: float, view_deg: float, band=M.ALBEDO_TOLERANCE,
-                 step=STEP, refine=REFINE):
+                 step=STEP, refine=REFINE, peak=None):
     """``(error, albedo difference, multipliers)``: the best mixture of
     ``target``'s members at one width and one view, widths and weights
-    free (module docstring); the error over :func:`peak_70`."""
+    free (module docstring); the error over ``peak`` (default
+    :func:`peak_70`)."""
     from scipy.optimize import minimize
 
     s = M.samples(target, value, math.cos(view_deg * M.DEG))
-    units = float(s.target[s.fit].max()) / peak_70(target, value)  # the LP's peak is this view's
+    peak = peak_70(target, value) if peak is None else peak
+    units = float(s.target[s.fit].max()) / peak  # the LP's peak is this view's
     eq = target.equivalent_alpha(value)
     free = [k for k, m in enumerate(target.members) if m != "diffuse"]
     same = [(a, b) for a, b in itertools.combinations(free, 2)
@@ -105,15 +108,21 @@ def view_optimum(target: M.Target, value: float, view_deg: float, band=M.ALBEDO_
     return e * units, albedo, z_of(best_y)
 
 
-def shipped_error(key: str, value: float, view_deg: float) -> float:
+@functools.lru_cache(maxsize=None)
+def _committed(key):
+    return M.load_fits([key])[key]
+
+
+def shipped_error(key: str, value: float, view_deg: float, peak=None) -> float:
     """The committed mixture's error at one width and view, in the same units."""
-    fit = M.load_fits([key])[key]
+    fit = _committed(key)
     t = fit.target
     c = math.cos(view_deg * M.DEG)
     s = M.samples(t, value, c)
     alphas, w = M.evaluate_series(fit, value, c)
     A, _a = M._block(s, t.members, alphas)
-    return float(np.max(np.abs(A[s.fit] @ w - s.target[s.fit]))) / peak_70(t, value)
+    peak = peak_70(t, value) if peak is None else peak
+    return float(np.max(np.abs(A[s.fit] @ w - s.target[s.fit]))) / peak
 
 
 CASES = (("microfacet/gaussian/smith/beta", (51.4, 79.4)),
@@ -128,10 +137,11 @@ def _value(key, shown):
 
 def _job(job):
     key, shown, view, band = job
-    t = {x.key: x for x in M.targets()}[key]
+    t = _committed(key).target
     value = _value(key, shown)
-    e, albedo, _z = view_optimum(t, value, view, band)
-    return job, e, albedo, shipped_error(key, value, view)
+    peak = peak_70(t, value)
+    e, albedo, _z = view_optimum(t, value, view, band, peak=peak)
+    return job, e, albedo, shipped_error(key, value, view, peak=peak)
 
 
 def main(jobs=2):
