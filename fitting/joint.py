@@ -29,7 +29,11 @@ coefficients of every node's weights together, in one linear programme:
   (alpha > 1, Trowbridge-Reitz in alpha) are held to that and count in
   nothing else;
 - the directional albedo within ALBEDO_BAND of the model's at every view
-  of the programme, or beyond it at a cost (ALBEDO_WEIGHT per unit);
+  of the programme, or beyond it at a cost: ALBEDO_WEIGHT per unit of the
+  largest excess over all widths, and ALBEDO_WEIGHT / W per unit of each
+  width's own excess at views up to 70 deg (with the largest alone, once
+  one width was off the others could drift off up to it at no cost:
+  Gaussian with separable Smith 0.0124, Trowbridge-Reitz in beta 0.0137);
 - the weights non-negative at every node and every view of
   :data:`.polish.POSITIVE_DEG` (the shaders interpolate the nodes'
   weights linearly in the width, so they stay non-negative between).
@@ -101,12 +105,14 @@ class _Blocks:
         # beyond the closures' reach (alpha 1) a width is only kept from
         # getting worse: it counts in neither the worst case nor the albedo
         self.inside = [v <= target.soft_max + 1e-12 for v in self.widths]
-        # columns: coefficients, e70 per width, e85 per width, T, albedo excess
+        # columns: coefficients, e70 per width, e85 per width, T, albedo
+        # excess (the largest), albedo excess per width (views to 70 deg)
         self.E70 = self.n_coef
         self.E85 = self.n_coef + W
         self.T = self.n_coef + 2 * W
         self.ALB = self.T + 1
-        self.nv = self.ALB + 1
+        self.ALBW = self.ALB + 1
+        self.nv = self.ALBW + W
         self.blocks = []   # (cols, matrix (L, cols) scaled, target less the fixed part, err column)
         self.albedo = []   # (width, view, cols, row, target albedo less the fixed part)
         for w_i, value in enumerate(self.widths):
@@ -211,15 +217,16 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE):
     h.setOptionValue("output_flag", False)
     h.setOptionValue("random_seed", 0)
     inf = highspy.kHighsInf
-    lower = np.concatenate([np.full(B.n_coef, -inf), np.zeros(2 * W + 2)])
+    lower = np.concatenate([np.full(B.n_coef, -inf), np.zeros(3 * W + 2)])
     upper = np.concatenate([np.full(B.n_coef, inf), cur70 + rise, cur85 + GRAZING_RISE,
-                            [inf, inf]])
+                            [inf, inf], np.full(W, inf)])
     h.addVars(nv, lower, upper)
     c = np.zeros(nv)
     c[B.T] = 1.0
     c[B.E70:B.E70 + W] = SPREAD / W
     c[B.E85:B.E85 + W] = 0.1 * SPREAD / W
     c[B.ALB] = ALBEDO_WEIGHT
+    c[B.ALBW:B.ALBW + W] = ALBEDO_WEIGHT / W
     h.changeColsCost(nv, np.arange(nv, dtype=np.int32), c)
 
     # fixed rows: positivity at every used node and view; the albedo band;
@@ -233,13 +240,14 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE):
                 r[n * K * N + k * N:n * K * N + (k + 1) * N] = -T
                 fixed_rows.append(r)
                 fixed_rhs.append(0.0)
-    for _w, _deg, cols, aT, ta in B.albedo:
+    for w, deg, cols, aT, ta in B.albedo:
         for sign in (1.0, -1.0):
-            r = np.zeros(nv)
-            r[cols] = sign * aT
-            r[B.ALB] = -1.0
-            fixed_rows.append(r)
-            fixed_rhs.append(sign * ta + ALBEDO_BAND)
+            for excess in ((B.ALB, B.ALBW + w) if deg <= 70 else (B.ALB,)):
+                r = np.zeros(nv)
+                r[cols] = sign * aT
+                r[excess] = -1.0
+                fixed_rows.append(r)
+                fixed_rhs.append(sign * ta + ALBEDO_BAND)
     for w in np.nonzero(B.inside)[0]:
         r = np.zeros(nv)
         r[B.E70 + w], r[B.T] = 1.0, -1.0

@@ -369,6 +369,71 @@ def test_the_joint_re_solve_lowers_the_error_a_node_makes_and_touches_no_other_n
             assert np.allclose(solved.weight_series[i], fit.weight_series[i], atol=1e-12)
 
 
+def test_one_width_off_in_albedo_lets_no_other_width_drift_off(monkeypatch):
+    """fitting/joint.py prices each width's albedo excess, not only the
+    largest: made here on committed data (Gaussian with correlated Smith),
+    the node at beta 73.8 deg's neighbour below scaled by 1.2 (its albedo
+    off by more than any weights of the free node can mend between them),
+    the free node solved alone: the widths between it and its other
+    neighbour, which it alone can move, keep their albedo within the band.
+    With only the largest excess priced they may drift up to it at no cost."""
+    from fitting import joint, polish
+    key = "microfacet/gaussian/smith_correlated/beta"
+    fit = M.load_fits([key])[key]
+    j = 13
+    fit.weights[j - 1] *= 1.2
+    get = polish.SampleCache(fit.target)
+    solved = joint.solve(fit, free={j}, log=lambda _m: None)
+    assert solved is not None
+    B = joint._Blocks(solved, solved.weight_series, get, {j})
+    _e70, _e85, albedo = B.errors(B.x_of(solved.weight_series))
+    nodes = fit.width_values
+    below = [a for v, a in zip(B.widths, albedo) if nodes[j - 1] < v < nodes[j]]
+    above = [a for v, a in zip(B.widths, albedo) if nodes[j] <= v < nodes[j + 1]]
+    assert max(below) > joint.ALBEDO_BAND + 0.005, below  # the scaled node is beyond mending
+    # 1e-6: HiGHS's feasibility per row
+    assert max(above) <= joint.ALBEDO_BAND + 1e-6, above
+
+
+def _trade_fit(worst, albedo, per_width):
+    """A stand-in Fit for :func:`fitting.assemble.finish`: only what it reads."""
+    from types import SimpleNamespace
+    return SimpleNamespace(
+        target=SimpleNamespace(key="test"), programme_worst=worst,
+        measured={"max_abs_over_peak_70": worst, "max_abs_over_peak_85": 0.2,
+                  "albedo_difference_70": albedo,
+                  "per_width": [(f"{i}", e, 0.2, 0.0) for i, e in enumerate(per_width)]})
+
+
+@pytest.mark.parametrize("results, ships", [
+    # albedo brought within 0.01 and the worst case lower: a width's rise
+    # is accepted; of two such, the smaller summed rise ships
+    ([(0.036, 0.0095, [0.030, 0.036]), (0.037, 0.0096, [0.029, 0.037])], 1),
+    ([(0.036, 0.0095, [0.030, 0.036]), None], 0),
+    # the albedo within but the worst case no lower: not a trade
+    ([(0.040, 0.0095, [0.030, 0.040]), (0.040, 0.0095, [0.030, 0.040])], None),
+    # the worst case lower but the albedo still beyond 0.01: not a trade
+    ([(0.036, 0.0105, [0.030, 0.036]), (0.036, 0.0105, [0.030, 0.036])], None),
+    # no width rose: ships under the ordinary rule, the first that qualifies
+    ([(0.036, 0.0095, [0.026, 0.036]), (0.035, 0.0095, [0.026, 0.035])], 0),
+])
+def test_the_albedo_trade_ships_only_where_both_measures_are_better(monkeypatch, results, ships):
+    """fitting/assemble.finish accepts a width's rise (beyond WIDTH_SLACK)
+    only where the result brings the albedo within its target and lowers
+    the worst case; the old fit: worst 0.040, albedo 0.012,
+    widths 0.026 and 0.040."""
+    from fitting import assemble, joint
+    old = _trade_fit(0.040, 0.012, [0.026, 0.040])
+    made = [None if r is None else _trade_fit(*r) for r in results]
+    calls = iter(made)
+    monkeypatch.setattr(joint, "solve", lambda fit, log=None, rise=None: next(calls))
+    out, how = assemble.finish(old, "fitted", log=lambda _m: None)
+    if ships is None:
+        assert out is old and how == "fitted"
+    else:
+        assert out is made[ships] and assemble.JOINT in how
+
+
 def test_a_member_crossing_the_alpha_limit_between_two_nodes_is_settled(monkeypatch):
     """fitting/clamp.py: where a member is at Cycles' alpha limit at one
     width node and below it at the next, the interpolated width reaches the
