@@ -113,7 +113,7 @@ def _redo(work, todo, keys, jobs, committed=False):
     from concurrent.futures import ProcessPoolExecutor
 
     from fitting import mixtures
-    chosen = {}
+    chosen, kept = {}, []
     if committed or set(todo) != set(keys):
         from addon.core.fits import mixtures as data
         if data.FITTER != mixtures.fitter_hash():
@@ -121,19 +121,35 @@ def _redo(work, todo, keys, jobs, committed=False):
         unknown = set(todo) - set(keys)
         if unknown:
             raise SystemExit(f"no such variants: {sorted(unknown)}")
-        kept = mixtures.load_fits([k for k in keys if k not in todo])
-        chosen = {k: (fit, data.SHIPPED[k]) for k, fit in kept.items()}
+        kept = [k for k in keys if k not in todo]
+        chosen = {k: (fit, data.SHIPPED[k]) for k, fit in mixtures.load_fits(kept).items()}
     with ProcessPoolExecutor(jobs) as pool:
         chosen.update(zip(todo, pool.map(work, todo)))
-    _write(chosen, keys)
+    _write(chosen, keys, kept)
 
 
-def _write(chosen, keys):
+def _blocks(text):
+    """Each variant's entry in a module_text, by key (the lines from
+    ``    'key': {`` to ``    },``)."""
+    import re
+    return {m.group(1): m.group(0)
+            for m in re.finditer(r"^    '([^']+)': \{\n.*?^    \},\n", text, re.S | re.M)}
+
+
+def _write(chosen, keys, kept=()):
+    """The module; the variants ``kept`` keep their committed text byte
+    for byte (a round trip through :func:`fitting.mixtures.load_fits`
+    changes their series in the last digits)."""
     from fitting import FITS, mixtures
     missing = tuple(k for k in keys if chosen[k][1].startswith("single lobe"))
     shipped = {k: chosen[k][1] for k in keys}
     path = FITS / "mixtures.py"
-    path.write_text(mixtures.module_text([chosen[k][0] for k in keys])
+    text = mixtures.module_text([chosen[k][0] for k in keys])
+    if kept:
+        old, new = _blocks(path.read_text()), _blocks(text)
+        for k in kept:
+            text = text.replace(new[k], old[k])
+    path.write_text(text
                     + "\n# variants with no fitted width: a single lobe of their kind at the\n"
                     "# equivalent width (fitting/assemble.py), measured like the fits\n"
                     f"NOT_FITTED = {missing!r}\n"
