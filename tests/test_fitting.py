@@ -395,6 +395,35 @@ def test_one_width_off_in_albedo_lets_no_other_width_drift_off(monkeypatch):
     assert max(above) <= joint.ALBEDO_BAND + 1e-6, above
 
 
+def test_the_joint_re_solve_keeps_each_views_error_where_it_was():
+    """fitting/joint.py prices each width's error view by view (VIEW_SPREAD),
+    not only each width's worst view: a minimax leaves every row but the
+    worst free, and without that term the views of a width rise toward its
+    worst view.  Made on committed data (Beckmann with V-groove, its node at
+    beta 23.4 deg solved alone): the mean of the widths' errors view by
+    view, at the programme's views to 70 deg, rises by less than 0.001
+    (priced at VIEW_SPREAD it was 0.0151 -> 0.0157; without the term
+    0.0151 -> 0.0216, two thirds of the views up by more than 0.002)."""
+    from fitting import joint, polish
+    key = "microfacet/beckmann/vgroove/beta"
+    fit = M.load_fits([key])[key]
+    j = 4
+    get = polish.SampleCache(fit.target)
+    solved = joint.solve(fit, free={j}, log=lambda _m: None)
+    assert solved is not None
+
+    def per_view(f):
+        B = joint._Blocks(f, f.weight_series, get, {j})
+        x = B.x_of(f.weight_series)
+        return np.array([float(np.max(np.abs(Mx @ x[cols] - t)))
+                         for cols, Mx, t, _b, e in B.blocks if e < B.E85])
+
+    before, after = per_view(fit), per_view(solved)
+    # 0.001: the view-by-view mean is a secondary term, traded against the worst case
+    assert after.mean() <= before.mean() + 0.001, (before.mean(), after.mean())
+    assert after.max() <= before.max() + joint.RISE + 1e-6
+
+
 def _trade_fit(worst, albedo, per_width):
     """A stand-in Fit for :func:`fitting.assemble.finish`: only what it reads."""
     from types import SimpleNamespace
