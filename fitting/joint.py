@@ -31,7 +31,7 @@ coefficients of every node's weights together, in one linear programme:
   GRAZING_RISE up to 85 deg (views every degree from 71 to 89 but the
   measured ones, lights up to 85 deg); widths beyond the closures' reach
   (alpha > 1, Trowbridge-Reitz in alpha) are held to that and count in
-  nothing else;
+  neither the worst case nor the albedo (only in the secondary means);
 - the directional albedo within ALBEDO_BAND of the model's at every view
   of the programme, or beyond it at a cost: ALBEDO_WEIGHT per unit of the
   largest excess over all widths, and ALBEDO_WEIGHT / W per unit of each
