@@ -161,9 +161,9 @@ def _write(chosen, keys, kept=()):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mixtures", action="store_true", help="also fit the closure mixtures")
-    parser.add_argument("--only", nargs="*", help="fit these mixture keys again (the others: as "
-                        "build/fits has them); with --collect, choose only these again (the "
-                        "others: as the committed module has them)")
+    parser.add_argument("--only", nargs="*", help="fit these mixture keys again and choose them "
+                        "again (the others: as the committed module has them); with --collect, "
+                        "choose only these again")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--finish", action="store_true",
                         help="apply the choice's last step (the joint re-solve) to the committed "
@@ -196,7 +196,9 @@ def main(argv=None) -> int:
                     missing_ok=True)
         with ProcessPoolExecutor(args.jobs) as pool:
             list(pool.map(_fit, todo))
-        collect(args.jobs)  # every variant: the best of its fit and the single lobes
+        # every variant (with --only: those, the others kept as committed):
+        # the best of its fit and the single lobes
+        collect(args.jobs, args.only)
     return 0
 
 
