@@ -13,9 +13,9 @@ raising a width it shares with its other neighbour.
 :func:`solve` keeps the members' widths and solves for the Chebyshev
 coefficients of every node's weights together, in one linear programme:
 
-- only the nodes around the widths that err near the 0.025 bound or whose
-  albedo is near the 0.01 bound (:func:`region`) are solved for, the
-  others kept;
+- only the nodes around the widths that err near the variant's bound
+  (0.025 for the Smith variants, 0.2 for Blinn-Phong) or whose albedo is
+  near the 0.01 bound (:func:`region`) are solved for, the others kept;
 - minimise the largest |mixture - model| over the peak, at every width of
   a dense set (the nodes and every eighth of the way between two), at views
   between the ones :func:`.mixtures.measure` checks
@@ -76,7 +76,8 @@ ALBEDO_WEIGHT = 1.0   # ... and what its excess costs
 ROUNDS = 60           # cutting-plane rounds at most
 ADD_PER_BLOCK = 3     # violated rows added per block and round
 INITIAL_PER_BLOCK = 2  # rows per block the first programme starts from
-REGION = 0.9 * 0.025  # widths erring more than this (near the bound) are worked on ...
+REGION_FRACTION = 0.9  # widths erring more than this fraction of the bound ...
+REGION = REGION_FRACTION * 0.025  # ... (0.025, the Smith variants') are worked on ...
 ALBEDO_LEVEL = 0.0098  # ... or whose albedo is further off than this (views to 70 deg)
 
 
@@ -203,18 +204,19 @@ def region(fit: M.Fit, level=REGION, get=None):
     return free
 
 
-def solve(fit: M.Fit, free=None, log=print, rise=RISE):
+def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION):
     """``fit`` with the weight series of the nodes ``free`` (default:
     :func:`region`) solved together (module docstring), measured; ``None``
     where the programme fails or there is nothing to solve.  ``rise``: how
-    much a width's error up to 70 deg may rise (RISE)."""
+    much a width's error up to 70 deg may rise (RISE); ``level``: the
+    error above which a width's nodes are free, with ``free`` not given."""
     import highspy
     import scipy.sparse as sp
 
     target = fit.target
     series = fit.weight_series.copy()
     get = SampleCache(target)
-    free = region(fit, get=get) if free is None else set(free)
+    free = region(fit, level=level, get=get) if free is None else set(free)
     if not free:
         return None
     log(f"  {target.key}: joint re-solve of nodes {sorted(free)}")

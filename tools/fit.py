@@ -100,7 +100,7 @@ def finish(jobs=2, only=None):
     from addon.core.fits import mixtures as data
     from fitting import assemble, mixtures
     targets = {t.key: t for t in mixtures.targets()}
-    todo = only or [k for k in targets if assemble.re_solved(targets[k])
+    todo = only or [k for k in targets if assemble.joint_step(targets[k])
                     and not data.SHIPPED[k].startswith("single lobe")]
     _redo(_finish, todo, list(targets), jobs, committed=True)
 
