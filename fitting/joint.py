@@ -270,12 +270,13 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION):
         r[B.E70 + w], r[B.T] = 1.0, -1.0
         fixed_rows.append(r)
         fixed_rhs.append(0.0)
-    for _cols, _Mx, _t, b, e in B.blocks:  # a block's error is at most its width's
-        r = np.zeros(nv)
-        r[b], r[e] = 1.0, -1.0
-        fixed_rows.append(r)
-        fixed_rhs.append(0.0)
-    _add_rows(h, sp.csr_matrix(np.array(fixed_rows)), fixed_rhs)
+    # a block's error is at most its width's: one sparse row per block (dense
+    # rows of every column would take nb x nv floats)
+    nb_rows = np.repeat(np.arange(nb), 2)
+    nb_cols = np.array([c for *_r, b, e in B.blocks for c in (b, e)])
+    links = sp.csr_matrix((np.tile([1.0, -1.0], nb), (nb_rows, nb_cols)), shape=(nb, nv))
+    _add_rows(h, sp.vstack([sp.csr_matrix(np.array(fixed_rows)), links]),
+              fixed_rhs + [0.0] * nb)
 
     active = [set() for _ in B.blocks]  # per block: (light, sign of the residual)
 
