@@ -105,6 +105,18 @@ def finish(jobs=2, only=None):
     _redo(_finish, todo, list(targets), jobs, committed=True)
 
 
+def _check_committed(todo, keys):
+    """Exit unless the committed module comes from this fitter (so its other
+    variants can be kept) and ``todo`` are variants."""
+    from addon.core.fits import mixtures as data
+    from fitting import mixtures
+    if data.FITTER != mixtures.fitter_hash():
+        raise SystemExit("the committed mixtures come from another fitter: collect them all")
+    unknown = set(todo) - set(keys)
+    if unknown:
+        raise SystemExit(f"no such variants: {sorted(unknown)}")
+
+
 def _redo(work, todo, keys, jobs, committed=False):
     """The module with ``work(key) -> (Fit, how)`` for the variants
     ``todo``, the others kept as the committed module has them (which must
@@ -116,11 +128,7 @@ def _redo(work, todo, keys, jobs, committed=False):
     chosen, kept = {}, []
     if committed or set(todo) != set(keys):
         from addon.core.fits import mixtures as data
-        if data.FITTER != mixtures.fitter_hash():
-            raise SystemExit("the committed mixtures come from another fitter: collect them all")
-        unknown = set(todo) - set(keys)
-        if unknown:
-            raise SystemExit(f"no such variants: {sorted(unknown)}")
+        _check_committed(todo, keys)
         kept = [k for k in keys if k not in todo]
         chosen = {k: (fit, data.SHIPPED[k]) for k, fit in mixtures.load_fits(kept).items()}
     with ProcessPoolExecutor(jobs) as pool:
@@ -178,6 +186,9 @@ def main(argv=None) -> int:
     if args.finish:
         finish(args.jobs, args.only)
         return 0
+    if args.only:  # the others are kept as committed: check that before any writing or fitting
+        from fitting import mixtures
+        _check_committed(args.only, [t.key for t in mixtures.targets()])
     from fitting import outputs
     for path, text in outputs().items():
         if not path.exists() or path.read_text() != text:
