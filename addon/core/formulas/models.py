@@ -161,7 +161,7 @@ class Phong(Formula):
         se = v.p("exponent")
         ci, co = E.dot(s.n, wi), E.dot(s.n, s.wo)
         cs = 2.0 * ci * co - E.dot(wi, s.wo)  # E.R(L)
-        lobe = L.lobe(cs, se)
+        lobe = L.lobe_between(E.vscale(s.n, 2.0 * ci) - wi, s.wo, se)  # R(L) and E
         value = select(_upper(ci, co), v.p("ks") * (self._norm(v, se) * lobe * ci),
                        vec(0.0, 0.0, 0.0))
         return {"value": value, "Lobe": lobe, "cos_theta_s": cs, "cos_theta_i": ci,
@@ -197,7 +197,7 @@ class BlinnPhong(Formula):
         h = wi + s.wo
         hl = E.length(h)
         ch = select(gt(hl, 0.0), div(E.dot(s.n, h), hl), 0.0)
-        lobe = L.lobe(ch, se)
+        lobe = L.lobe_between(s.n, h, se)
         value = select(_upper(ci, co), v.p("ks") * (self._norm(v, se) * lobe * ci),
                        vec(0.0, 0.0, 0.0))
         return {"value": value, "Lobe": lobe, "cos_theta_h": ch, "cos_theta_i": ci,
@@ -500,7 +500,9 @@ class KajiyaKay(Formula):
         sl = E.sqrt(fmax(1.0 - cl * cl, 0.0))
         se = E.sqrt(fmax(1.0 - ce * ce, 0.0))
         diffuse = v.p("kd") * sl
-        specular = v.p("ks") * L.lobe(sl * se - cl * ce, v.p("exponent"))
+        # cos and sin of the angle to the cone: sl se - cl ce and sl ce + cl se
+        sn = sl * ce + cl * se
+        specular = v.p("ks") * L.lobe_of_tangent(sl * se - cl * ce, sn * sn, v.p("exponent"))
         return {"value": diffuse + specular, "Diffuse": diffuse, "Specular": specular,
                 "cos_theta_l": cl, "cos_theta_e": ce}
 
