@@ -161,7 +161,8 @@ class Phong(Formula):
         se = v.p("exponent")
         ci, co = E.dot(s.n, wi), E.dot(s.n, s.wo)
         cs = 2.0 * ci * co - E.dot(wi, s.wo)  # E.R(L)
-        lobe = L.lobe_between(E.vscale(s.n, 2.0 * ci) - wi, s.wo, se)  # R(L) and E
+        t = E.cross(E.vscale(s.n, 2.0 * ci) - wi, s.wo)  # R(L) x E: |R x E| = sin
+        lobe = L.lobe_of_tangent(cs, E.dot(t, t), se)
         value = select(_upper(ci, co), v.p("ks") * (self._norm(v, se) * lobe * ci),
                        vec(0.0, 0.0, 0.0))
         return {"value": value, "Lobe": lobe, "cos_theta_s": cs, "cos_theta_i": ci,
