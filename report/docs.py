@@ -251,7 +251,11 @@ def _fidelity_lines(model_id: str) -> list:
         lines += ["", "Any Fresnel (none, dielectric, conductor) rides on the microfacet "
                   "members and has the status of its variant; Blender 4.5's conductor "
                   "closure is an older approximation (up to 8 % off).  Widths: half-angle "
-                  "beta / native alpha / anisotropic alpha x, y."]
+                  "beta / native alpha / anisotropic alpha x, y.  Cycles clamps its "
+                  "closures' alpha to 1: a native width (alpha, alpha x or y) over 1, or "
+                  "Beckmann's m of beta over 1 (beta from 63 deg), renders the clamped "
+                  "lobe, so exact and near hold only up to there, and the fitted status of "
+                  "the alpha widths up to alpha 1 (beyond: approx)."]
     lines += ["", "| variant | OSL | native nodes |", "|---|---|---|"]
     for enums in _variants(model_id):
         label = ", ".join(enums.values()) or "default"

@@ -68,6 +68,32 @@ def test_path_traced_status_per_version_and_backend():
     # the native nodes carry it through the Metallic node's conductor (k = 0)
     assert glass.path_traced_status((5, 2), "native") == "exact"
     assert glass.path_traced_status((4, 5), "native") == "approx"
+    # a closure is the model only as wide as Cycles lets it be (alpha <= 1)
+    deg = math.pi / 180.0
+    for backend in ("osl", "native"):
+        def status(dist, **widths):
+            params = {"distribution": dist, "shadowing": "smith_correlated", **widths}
+            return cases_mod.Case("microfacet", params, "w").path_traced_status(backend=backend)
+        assert status("trowbridge_reitz", alpha=1.0) == "exact"
+        assert status("trowbridge_reitz", alpha=1.01) == "approx"
+        assert status("trowbridge_reitz", alpha_x=0.3, alpha_y=1.5) == "approx"
+        assert status("trowbridge_reitz", beta=85.0 * deg) == "exact"  # alpha 0.84
+        assert status("beckmann", beta=62.0 * deg) == "near"
+        assert status("beckmann", beta=64.0 * deg) == "approx"  # m over 1 from 63 deg
+        assert status("beckmann", alpha=2.0) == "approx"
+
+
+@pytest.mark.parametrize("backend", ["osl", "svm"])
+def test_a_closure_wider_than_cycles_allows_is_not_called_exact(verify, api, backend):
+    """Trowbridge-Reitz with correlated Smith at alpha 2 (the socket goes to
+    4): Cycles clamps the GGX closure's alpha to 1, so the BSDF output is
+    that lobe, measured off by far more than the exact tolerance, and the
+    report calls it approx."""
+    case = cases_mod.Case("microfacet", {"distribution": "trowbridge_reitz",
+                                         "shadowing": "smith_correlated", "alpha": 2.0}, "alpha 2")
+    r = _run(verify, api, case, "path_traced", backend)
+    assert r["status"] == "approx" and r["passed"] is None
+    assert r["max_rel_error"] > 10 * cases_mod.PATH_TRACED_TOLERANCE["exact"]
 
 
 # --------------------------------------------------------------------------

@@ -86,7 +86,11 @@ class Case:
         Blender version and backend (``"osl"``, or ``"native"`` nodes)."""
         model, _fixed, _defaults = catalogue.resolve(self.model)
         enums = self.enums
-        status = formulas.FORMULAS[model.id].fidelity(enums, CAPS[backend])
+        formula = formulas.FORMULAS[model.id]
+        if model.id == "microfacet":  # the widths decide too (Cycles clamps alpha to 1)
+            status = formula.fidelity(enums, CAPS[backend], params=self.params)
+        else:
+            status = formula.fidelity(enums, CAPS[backend])
         # 4.5's conductor closure is an older approximation; the native nodes
         # also carry a dielectric's Fresnel through it (k = 0)
         through_conductor = enums.get("fresnel") == "conductor" or (

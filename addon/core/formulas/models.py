@@ -241,6 +241,22 @@ def _fitted_lobes(key, x, s, weight, member=None):
     return mixtures.mixture(key, x, _cos_o(s), member or plain)
 
 
+def native_width_beyond_closures(distribution, enums, params) -> bool:
+    """Whether a Trowbridge-Reitz or Beckmann width is wider than Cycles'
+    closures reach (alpha 1): alpha, alpha x or y over 1 as given, or in
+    beta Beckmann's m (Trowbridge-Reitz's alpha of beta stays under 0.85)."""
+    mode = enums.get("width_mode") or ("alpha_xy" if "alpha_x" in params else
+                                       "alpha" if "alpha" in params else "beta")
+    if mode == "alpha":
+        return float(params.get("alpha", 0.0)) > 1.0
+    if mode == "alpha_xy":
+        return max(float(params.get("alpha_x", 0.0)), float(params.get("alpha_y", 0.0))) > 1.0
+    if distribution != "beckmann" or "beta" not in params:
+        return False
+    t = math.tan(min(float(params["beta"]), catalogue.BETA_MAX))
+    return t / math.sqrt(math.log(2.0) + 2.0 * math.log1p(t * t)) > 1.0
+
+
 class Microfacet(Formula):
     """Slides "Torrance-Sparrow Model", "Microfacet Distribution Functions",
     "Self-Shadowing Function", "Self-Shadowing: V-Groove Model":
@@ -431,12 +447,20 @@ class Microfacet(Formula):
             return self._fresnel_lobe(v, s, name, ks * w, ax, ay)
         return mixtures.mixture(key, x, cos_o, member)
 
-    def fidelity(self, enums, caps=ALL_CLOSURES):
+    def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
+        """As :meth:`Formula.fidelity`; with ``params`` (the widths), a
+        closure that is the model ("exact", "near") only within Cycles'
+        range: it clamps alpha to 1, so a wider native width (alpha, alpha x
+        or y over 1; Beckmann's m of beta over 1, from beta 63 deg) renders
+        the clamped lobe: "approx".  So is a fitted mixture given in alpha
+        beyond alpha 1 (its bound holds where the closures reach; the fitter
+        measures the rest apart, 'beyond alpha 1')."""
         dist, sh = enums.get("distribution"), enums.get("shadowing")
-        if sh == "smith_correlated" and dist == "trowbridge_reitz":
-            return "exact"
-        if sh == "smith_correlated" and dist == "beckmann":
-            return "near"
+        if sh == "smith_correlated" and dist in ("trowbridge_reitz", "beckmann"):
+            status = "exact" if dist == "trowbridge_reitz" else "near"
+            if params is not None and native_width_beyond_closures(dist, enums, params):
+                return "approx"
+            return status
         if sh == "smith_1967" and dist != "beckmann":
             sh = "smith"
         mode = enums.get("width_mode", "beta")
@@ -449,7 +473,11 @@ class Microfacet(Formula):
             # grows where F varies over the lobe (measured up to 0.07 of the
             # peak: Gaussian with correlated Smith, glass 1.5, beta ~80 deg)
             return "approx"
-        return "approx" if mode == "alpha_xy" else status
+        if mode == "alpha_xy" or (native and params is not None
+                                  and native_width_beyond_closures(dist, enums, params)):
+            return "approx"
+        return status
+
 
 class Ward(Formula):
     """Ward (1992) anisotropic: ks exp(-tan^2(h)(cos^2 phi/ax^2 + sin^2 phi/ay^2))
