@@ -173,6 +173,19 @@ def test_gonio_plan_masks_and_shadows():
     assert not (low.mask & low.shadowed).any()
 
 
+def test_a_case_with_ward_own_alphas_has_wards_status():
+    """Ward's alpha_x and alpha_y are its own sockets, not the microfacet
+    model's width mode: its case resolves to Ward's variant (the case once
+    raised ValueError for a width_mode Ward does not have)."""
+    from verification.suites import cases as cases_mod
+    ward = cases_mod.Case("ward", {"alpha_x": 0.2, "alpha_y": 0.5}, "own alphas")
+    assert "width_mode" not in ward.enums
+    assert ward.path_traced_status() == "approx"
+    aniso = cases_mod.Case("microfacet", {"distribution": "beckmann", "shadowing": "smith_correlated",
+                                          "alpha_x": 0.2, "alpha_y": 0.5}, "aniso")
+    assert aniso.enums["width_mode"] == "alpha_xy"
+
+
 def test_compare_relative_error_and_floor():
     e = np.zeros((2, 2, 3))
     e[0, 0] = 1.0

@@ -72,12 +72,13 @@ class Case:
     @property
     def enums(self) -> dict:
         """The structural choices of the case's group (preset values filled in)."""
-        enums = {k: v for k, v in self.params.items()
-                 if k in {p.name for p in variants.variant_params(self.model)}}
-        if "alpha_x" in self.params:
-            enums["width_mode"] = "alpha_xy"
-        elif "alpha" in self.params:
-            enums["width_mode"] = "alpha"
+        structural = {p.name for p in variants.variant_params(self.model)}
+        enums = {k: v for k, v in self.params.items() if k in structural}
+        if "width_mode" in structural:  # the microfacet model's, not Ward's own alphas
+            if "alpha_x" in self.params:
+                enums["width_mode"] = "alpha_xy"
+            elif "alpha" in self.params:
+                enums["width_mode"] = "alpha"
         _model, full = variants.resolve_variant(self.model, enums)
         return {k: v for k, v in full.items() if k != "backend"}
 
