@@ -186,7 +186,7 @@ def _check_lamps(lamps):
         if getattr(obj, "type", None) != 'LIGHT':
             raise ValueError(f"{getattr(obj, 'name', obj)!r} is not a light object")
         if obj.data.type not in SUPPORTED_LIGHTS:
-            raise ValueError(f"{obj.name!r} is a {obj.data.type} light; allowed: "
+            raise ValueError(f"{obj.name!r} is a light of type {obj.data.type}; allowed: "
                              + ", ".join(SUPPORTED_LIGHTS))
         if obj.name in seen:
             raise ValueError(f"{obj.name!r} is given twice")

@@ -483,6 +483,7 @@ def test_presets_are_the_named_microfacet_models():
     (lambda w: R.shade("phong", w, w, shininess=3), "allowed: exponent"),
     (lambda w: R.shade("phong", w, w, exponent=-1), r"\[0, 10000\]"),
     (lambda w: R.shade("phong", w, w, exponent=float("nan")), "exponent must be"),
+    (lambda w: R.shade("phong", w, w, ks=None), r"ks=None is not allowed; ks must be an RGB"),
     (lambda w: R.shade("microfacet", w, w, distribution="ggx"), "'trowbridge_reitz'"),
     (lambda w: R.shade("microfacet", w, w, beta=0.0), "beta must be"),
     (lambda w: R.shade("microfacet", w, w, beta=0.3, alpha=0.2), "one width"),

@@ -21,6 +21,8 @@ def check_value(p, value):
         if not isinstance(value, str) or value not in p.choices:
             raise ValueError(f"{p.name}={value!r} is not allowed; {p.name} must be {p.allowed()}")
         return value
+    if value is None:  # numpy would make it NaN and call it out of range
+        raise ValueError(f"{p.name}=None is not allowed; {p.name} must be {p.allowed()}")
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
