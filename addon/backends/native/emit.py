@@ -11,7 +11,8 @@ semantics (those of the Math node: safe division, square root, logarithm
 and power); the few that have no node are composed:
 
 - ``select(c, a, b)`` = a c + b (1 - c), exact for c in {0, 1} and finite
-  a, b (the formulas guard every value);
+  a, b (the formulas guard every value); a c alone where b is 0, b (1 - c)
+  where a is 0;
 - ``clamp_input(x, lo, hi)`` = min(max(x, lo), hi): Math MAXIMUM is fmaxf,
   which maps NaN to the other operand, so NaN goes to ``lo`` as in OSL;
 - ``finite(x)`` = (x > -FLT_MAX) (x < FLT_MAX): a comparison with NaN is 0;
@@ -38,6 +39,15 @@ from dataclasses import dataclass, field
 from addon.core.formulas import expr as E
 
 FLT_MAX = 3.4028234663852886e38
+
+
+def _is_zero(e) -> bool:
+    """A constant 0 (a float, or a vector of three zeros)."""
+    if e.op == "const":
+        return e.data == 0.0
+    if e.op == "vlit":
+        return all(x == 0.0 for x in e.data)
+    return False
 RAY_OFFSET = 1e-4
 
 
@@ -189,7 +199,13 @@ class Planner:
             return self.math("LOGARITHM", self._r(a[0]), ("const", 2.718281828459045))
         if op == "select":
             c, x, y = (self._r(v) for v in a)
+            if e.kind == "f" and _is_zero(a[2]):  # a c + 0 (1 - c): one node
+                return self.math("MULTIPLY", x, c)
+            if e.kind == "v" and _is_zero(a[2]):
+                return self.vmath("SCALE", x, scale=c)
             notc = self.math("SUBTRACT", ("const", 1.0), c)
+            if e.kind == "f" and _is_zero(a[1]):
+                return self.math("MULTIPLY", y, notc)
             if e.kind == "v":
                 return self.vmath("ADD", self.vmath("SCALE", x, scale=c),
                                   self.vmath("SCALE", y, scale=notc))
