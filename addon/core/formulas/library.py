@@ -65,7 +65,17 @@ def lobe_of_tangent(c, sin2, s):
     """max(0, cos)^s from c = r cos and sin2 = (r sin)^2 (any common scale r > 0),
     as (1 + tan^2)^(-s/2): see :func:`lobe_between`."""
     tan2 = fmin(div(sin2, c * c), 1e30)  # finite at c -> 0, where s = 0 gives 1
-    return select(gt(c, 0.0), exp(-0.5 * s * log1p(tan2)), 0.0)
+    return select(gt(c, 0.0), one_plus_to_the(tan2, -0.5 * s), 0.0)
+
+
+def one_plus_to_the(x, y):
+    """(1 + x)^y for x >= 0, accurate where 1 + x rounds: exp(y log1p(x))
+    with log1p as in :func:`log1p` (Goldberg), written as one power,
+    u^(y x/(u - 1)) with u = 1 + x, instead of a logarithm and an
+    exponential (in SVM the logarithm node takes two logarithms)."""
+    u = 1.0 + x
+    r = select(gt(u, 1.0), div(x, u - 1.0), 1.0)
+    return E.pow_(u, y * r)
 
 
 def erfc(x):
@@ -172,7 +182,7 @@ def tan2(hx, hy, hz):
 
 def D_blinn(hx, hy, hz, beta):
     c = blinn_exponent_from_beta(beta)
-    return (c + 2.0) * (1.0 / (2.0 * PI)) * exp(-0.5 * c * log1p(tan2(hx, hy, hz)))
+    return (c + 2.0) * (1.0 / (2.0 * PI)) * one_plus_to_the(tan2(hx, hy, hz), -0.5 * c)
 
 
 def D_gaussian(hx, hy, hz, beta):
