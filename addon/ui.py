@@ -18,6 +18,7 @@ from bpy.props import BoolProperty, EnumProperty, StringProperty
 from . import api, groups, lighting
 from .backends.native import build as native_build
 from .core import catalogue
+from .core.formulas import models as formulas
 
 log = logging.getLogger(__name__)
 
@@ -482,6 +483,9 @@ def _draw_node(layout, context, node):
     row.label(text="Mode")
     row.operator_menu_enum(NODE_OT_rm_set_mode.bl_idname, "mode",
                            text=dict((m, label) for m, label, _d in MODE_ITEMS)[mode])
+    if mode != "exact":
+        text, icon = bsdf_status_text(context.scene, model_id, variant, node)
+        box.label(text=text, icon=icon)
     bound = api.bound_lights(node)
     box.label(text="Lamps: " + (", ".join(o.name for o in bound) if bound
                                 else "none (the Light inputs)"), icon='LIGHT')
@@ -499,6 +503,37 @@ def _draw_node(layout, context, node):
     if mode != "path_traced" and not native_build.has_raycast() \
             and api.rendering_backend(context.scene)[0] == "native":
         box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
+
+
+_STATUS_TEXT = {
+    "exact": ("BSDF output: exact (a Cycles closure is the model)", 'CHECKMARK'),
+    "near": ("BSDF output: near (Cycles' closure, under 1 % off)", 'CHECKMARK'),
+    "fitted": (f"BSDF output: fitted (within {formulas.FIT_BOUND:g} of the peak)", 'CHECKMARK'),
+    "approx": ("BSDF output: approximate (Direct is exact)", 'INFO'),
+}
+
+
+def bsdf_status_text(scene, model_id, variant, node) -> tuple:
+    """``(text, icon)``: how the node's BSDF output matches the model with the
+    scene's current settings (docs/verification.md's statuses), at the
+    node's width where its width sockets are not linked."""
+    backend, _reason = api.rendering_backend(scene)
+    if scene.render.engine != 'CYCLES':
+        return "BSDF output: EEVEE's own closures (approximate)", 'INFO'
+    if backend == "none":
+        return "BSDF output: not rendered", 'ERROR'
+    params = {}
+    for name in ("beta", "alpha", "alpha_x", "alpha_y"):
+        try:
+            socket = groups.input_socket(node, name)
+        except KeyError:
+            continue
+        if socket.is_linked:  # its value is the link's: the variant's status
+            params = None
+            break
+        params[name] = float(socket.default_value)
+    status = formulas.path_traced_status(model_id, variant, params, bpy.app.version, backend)
+    return _STATUS_TEXT[status]
 
 
 # ---------------------------------------------------------------------------

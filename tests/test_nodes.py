@@ -569,6 +569,8 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     assert [e[1:] for e in layout.of("operator_menu_enum")] == [
         ("node.rm_set_mode", "Path Traced", "mode"), ("node.rm_bind_light", "Bind One", "light")]
     assert "node.rm_upgrade_groups" not in ops
+    # the BSDF output's status as the scene renders it: native nodes have no Phong lobe
+    assert ("label", "BSDF output: approximate (Direct is exact)") in [e[:2] for e in layout.log]
 
     scene.cycles.shading_system = True
     scene.cycles.device = "CPU"
@@ -577,6 +579,9 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     panel.draw(SimpleNamespace(layout=layout), ctx)
     ops = [entry[1] for entry in layout.of("operator")]
     assert "node.rm_enable_osl" not in ops and "node.rm_upgrade_groups" in ops
+    assert ("label", "BSDF output: exact (a Cycles closure is the model)") in \
+        [e[:2] for e in layout.log]  # OSL's phong_ramp
+    node.node_tree["rm_version"] = nodes.NODES_VERSION
 
     # the variant menu offers every choice and the operator switches
     layout = Recorder()
@@ -586,6 +591,37 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     fake = SimpleNamespace(param="normalization", value="energy", report=lambda *a: None)
     assert bpy.types.NODE_OT_rm_switch_variant.execute(fake, ctx) == {"FINISHED"}
     assert node.node_tree.name == "RM Phong (Energy)"
+
+
+def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
+    """GGX with correlated Smith is Cycles' own closure up to alpha 1; the
+    sidebar reads the node's width and says when Cycles' clamp makes it
+    approximate, and when a link makes the width unknown."""
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = True
+    scene.cycles.device = "CPU"
+    mat = new_material(bpy)
+    node = api.add_model(mat, "microfacet", distribution="trowbridge_reitz",
+                         shadowing="smith_correlated", alpha=0.5)
+    panel = bpy.types.NODE_PT_rm_sidebar
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+
+    def labels():
+        layout = Recorder()
+        panel.draw(SimpleNamespace(layout=layout), ctx)
+        return [e[1] for e in layout.log if e[0] == "label" and e[1].startswith("BSDF output")]
+
+    assert labels() == ["BSDF output: exact (a Cycles closure is the model)"]
+    nodes.input_socket(node, "alpha").default_value = 2.0
+    assert labels() == ["BSDF output: approximate (Direct is exact)"]
+    value = mat.node_tree.nodes.new("ShaderNodeValue")
+    mat.node_tree.links.new(value.outputs[0], nodes.input_socket(node, "alpha"))
+    assert labels() == ["BSDF output: exact (a Cycles closure is the model)"]  # the variant's
+    api.set_mode(node, "exact")
+    assert labels() == []  # the Direct output is the model
 
 
 def test_bind_light_operator_binds_the_lamp_chosen_not_the_active_one(ui, bpy):

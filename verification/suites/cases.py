@@ -47,7 +47,6 @@ EXACT, NEAR, FITTED, APPROX = "exact", "near", "fitted", "approx"
 # largest difference over the peak, the others on the relative error.
 PATH_TRACED_TOLERANCE = {EXACT: tolerance("path_traced_exact"), NEAR: tolerance("path_traced_near"),
                          FITTED: tolerance("path_traced_fitted"), APPROX: None}
-CAPS = {"osl": formulas.ALL_CLOSURES, "native": formulas.NATIVE_CLOSURES}
 EXACT_MODE_TOLERANCE = tolerance("exact_mode")
 
 # The metal of the conductor cases.
@@ -86,19 +85,9 @@ class Case:
         """``"exact"``, ``"near"``, ``"fitted"`` or ``"approx"`` for this
         Blender version and backend (``"osl"``, or ``"native"`` nodes)."""
         model, _fixed, _defaults = catalogue.resolve(self.model)
-        enums = self.enums
-        formula = formulas.FORMULAS[model.id]
-        if model.id == "microfacet":  # the widths decide too (Cycles clamps alpha to 1)
-            status = formula.fidelity(enums, CAPS[backend], params=self.params)
-        else:
-            status = formula.fidelity(enums, CAPS[backend])
-        # 4.5's conductor closure is an older approximation; the native nodes
-        # also carry a dielectric's Fresnel through it (k = 0)
-        through_conductor = enums.get("fresnel") == "conductor" or (
-            backend == "native" and enums.get("fresnel") == "dielectric")
-        if through_conductor and tuple(blender_version[:2]) < (5, 2) and status in (EXACT, NEAR):
-            return APPROX
-        return status
+        # the widths decide too (Cycles clamps alpha to 1)
+        return formulas.path_traced_status(model.id, self.enums, self.params, blender_version,
+                                           backend)
 
     def path_traced_tolerance(self, blender_version=(5, 2), backend="osl"):
         return PATH_TRACED_TOLERANCE[self.path_traced_status(blender_version, backend)]

@@ -547,6 +547,28 @@ FORMULAS = {f.model_id: f for f in (Lambert(), Phong(), BlinnPhong(), Microfacet
                                     KajiyaKay())}
 
 
+def path_traced_status(model_id: str, enums: dict, params=None, blender_version=(5, 2),
+                       backend: str = "osl") -> str:
+    """How the BSDF output matches the model: ``"exact"``, ``"near"``,
+    ``"fitted"`` or ``"approx"``, for a variant (``enums``), its widths
+    (``params``, where known: a width wider than Cycles' closures reach is
+    approx), a Blender version and a backend (``"osl"``, or ``"native"``
+    nodes)."""
+    caps = ALL_CLOSURES if backend == "osl" else NATIVE_CLOSURES
+    formula = FORMULAS[model_id]
+    if model_id == "microfacet" and params is not None:
+        status = formula.fidelity(enums, caps, params=params)
+    else:
+        status = formula.fidelity(enums, caps)
+    # 4.5's conductor closure is an older approximation; the native nodes
+    # also carry a dielectric's Fresnel through it (k = 0)
+    through_conductor = enums.get("fresnel") == "conductor" or (
+        backend == "native" and enums.get("fresnel") == "dielectric")
+    if through_conductor and tuple(blender_version[:2]) < (5, 2) and status in ("exact", "near"):
+        return "approx"
+    return status
+
+
 def exact(model_id: str, v: Values, s: Shading, lights=None) -> dict:
     """The exact outputs: Color = the sum over the lights of E times the
     value, the terms for light 1.  ``lights``: a list of
