@@ -45,14 +45,10 @@ def acos_refined(c):
     return atan2_refined(sqrt(fmax(1.0 - cc * cc, 0.0)), cc)
 
 
-def lobe(x, s):
-    """max(0, x)^s with 0^0 = 0 below the cut-off (reference._lobe)."""
-    return select(gt(x, 0.0), E.pow_(fmax(x, 1e-30), s), 0.0)
-
-
 def lobe_between(a, b, s):
     """The lobe of the angle between vectors ``a`` and ``b``: max(0, cos)^s
-    with cos = a.b/(|a||b|), as lobe(cos, s), but computed from
+    with cos = a.b/(|a||b|) (0^0 = 0 below the cut-off, as reference._lobe),
+    computed from
     tan^2 = |a x b|^2/(a.b)^2 as (1 + tan^2)^(-s/2).  A cosine near 1 holds
     in float32 only to 6e-8, and x^s multiplies that by s (1e-4 at s = 1000);
     the tangent holds to a few ulps of itself, so the error stays at a few
