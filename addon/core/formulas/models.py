@@ -253,8 +253,11 @@ def native_width_beyond_closures(distribution, enums, params) -> bool:
         return max(float(params.get("alpha_x", 0.0)), float(params.get("alpha_y", 0.0))) > 1.0
     if distribution != "beckmann" or "beta" not in params:
         return False
-    t = math.tan(min(float(params["beta"]), catalogue.BETA_MAX))
-    return t / math.sqrt(math.log(2.0) + 2.0 * math.log1p(t * t)) > 1.0
+    # the shaders' own m of beta, folded to a constant
+    m = L.beckmann_m_from_beta(E.const(min(float(params["beta"]), catalogue.BETA_MAX)))
+    if not m.is_const:
+        raise TypeError(f"beckmann_m_from_beta did not fold at beta {params['beta']!r}")
+    return m.data > 1.0
 
 
 class Microfacet(Formula):
