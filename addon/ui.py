@@ -523,7 +523,7 @@ def bsdf_status_text(scene, model_id, variant, node) -> tuple:
     if backend == "none":
         return "BSDF output: not rendered", 'ERROR'
     params = {}
-    for name in ("beta", "alpha", "alpha_x", "alpha_y"):
+    for name in (n for names in groups.WIDTH_SOCKETS.values() for n in names):
         try:
             socket = groups.input_socket(node, name)
         except KeyError:

@@ -170,7 +170,7 @@ def main(jobs=2):
     return 0
 
 
-def shipped(jobs=2):
+def shipped():
     """The committed mixtures' error alone at the CASES' widths, views every
     10 deg (seconds: the search is skipped): the table's last column after
     a change to the data."""
