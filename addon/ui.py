@@ -518,10 +518,10 @@ def bsdf_status_text(scene, model_id, variant, node) -> tuple:
     scene's current settings (docs/verification.md's statuses), at the
     node's width where its width sockets are not linked."""
     backend, _reason = api.rendering_backend(scene)
+    if backend == "none":  # Workbench: no shader nodes
+        return "BSDF output: not rendered", 'ERROR'
     if scene.render.engine != 'CYCLES':
         return "BSDF output: EEVEE's own closures (approximate)", 'INFO'
-    if backend == "none":
-        return "BSDF output: not rendered", 'ERROR'
     params = {}
     for name in (n for names in groups.WIDTH_SOCKETS.values() for n in names):
         try:

@@ -620,6 +620,9 @@ def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     value = mat.node_tree.nodes.new("ShaderNodeValue")
     mat.node_tree.links.new(value.outputs[0], nodes.input_socket(node, "alpha"))
     assert labels() == ["BSDF output: exact (a Cycles closure is the model)"]  # the variant's
+    scene.render.engine = "BLENDER_WORKBENCH"
+    assert labels() == ["BSDF output: not rendered"]
+    scene.render.engine = "CYCLES"
     api.set_mode(node, "exact")
     assert labels() == []  # the Direct output is the model
 
