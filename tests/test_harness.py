@@ -198,6 +198,22 @@ def test_compare_relative_error_and_floor():
     assert stats["worst"] == (1, 1, 2)
 
 
+def test_compare_a_black_expectation_against_the_scale_given():
+    """An expectation black everywhere has no peak: the given scale stands
+    for it, so float dust passes and a visible error does not."""
+    e = np.zeros((2, 2, 3))
+    r = e.copy()
+    r[0, 1, 0] = 1e-8                        # float32 dust on a radiance of order 0.3
+    stats = gonio.compare(r, e, np.ones((2, 2), bool), scale=0.3)
+    assert stats["floor"] == pytest.approx(3e-4) and stats["scale"] == 0.3
+    assert stats["max_rel_error"] < 1e-4
+    r[1, 0, 2] = 0.03                        # a tenth of the scale: a real error
+    assert gonio.compare(r, e, np.ones((2, 2), bool), scale=0.3)["max_rel_error"] == \
+        pytest.approx(100.0)
+    with pytest.raises(ValueError, match="scale"):
+        gonio.compare(r, e, np.ones((2, 2), bool), scale=0.0)
+
+
 # --------------------------------------------------------------------------
 # native closures on the gonio scene
 

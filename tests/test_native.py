@@ -120,6 +120,25 @@ def test_eevee_exact_and_path_traced(verify, api, case):
     assert r["finite"] and r["lit"]
 
 
+BLACK_CASES = [
+    cases_mod.Case("phong", {"ks": (0.0, 0.0, 0.0), "exponent": 20.0}, "black ks"),
+    cases_mod.Case("microfacet", {"distribution": "beckmann", "fresnel": "conductor",
+                                  "ior": (1.0, 1.0, 1.0), "k": (0.0, 0.0, 0.0), "beta": 0.3},
+                   "conductor n 1 k 0"),
+]
+
+
+@pytest.mark.parametrize("backend", ["svm", "eevee"])
+@pytest.mark.parametrize("case", BLACK_CASES, ids=lambda c: c.variant)
+def test_a_black_model_renders_black_and_passes(verify, api, case, backend):
+    """A model that reflects nothing (a black colour; a conductor of index 1
+    and no extinction: F = 0) has an all-black reference; exact mode renders
+    black within the tolerance of a white Lambertian surface's brightness."""
+    r = _run(verify, api, case, "exact", backend, theta_d=(15.0,))
+    assert r["passed"] and r["finite"], r
+    assert r["max_abs_over_peak"] <= 1e-4, r
+
+
 # --------------------------------------------------------------------------
 # The shadow ray
 

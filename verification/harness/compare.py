@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 
-def compare(rendered, expected, mask, *, floor=None, floor_fraction=1e-3):
+def compare(rendered, expected, mask, *, floor=None, floor_fraction=1e-3, scale=1.0):
     """Compare a render with an expectation on the pixels of ``mask``.
 
     The relative error of a pixel channel is ``|r - e| / max(|e|, floor)``.
@@ -16,10 +16,13 @@ def compare(rendered, expected, mask, *, floor=None, floor_fraction=1e-3):
     highlight, e ~ 0) from dominating: by default it is ``floor_fraction``
     times the largest ``|e|`` over the mask (1e-3 of the peak), so below the
     floor an absolute error of ``floor_fraction * peak`` counts as 100 %.
+    Where the expectation is 0 on every pixel (a black colour, a Fresnel
+    factor of 0) it has no peak: ``scale``, a radiance the scene would show
+    (e.g. a white Lambertian surface's brightest), stands for it.
 
     Returns a dict with ``max_rel_error``, ``rms_rel_error``,
     ``max_abs_error``, ``floor``, ``n_pixels`` (masked pixels), ``peak``
-    (largest |e|), ``worst`` ((row, column, channel) of the largest relative
+    (largest |e|), ``scale`` (``peak``, or ``scale`` where it is 0), ``worst`` ((row, column, channel) of the largest relative
     error) and the rendered and expected values there.
     """
     r = np.asarray(rendered, dtype=np.float64)[..., :3]
@@ -32,8 +35,10 @@ def compare(rendered, expected, mask, *, floor=None, floor_fraction=1e-3):
         raise ValueError("compare: empty mask")
     rm, em = r[mask], e[mask]
     peak = float(np.max(np.abs(em)))
+    if not scale > 0:
+        raise ValueError(f"compare: scale must be positive, not {scale!r}")
     if floor is None:
-        floor = floor_fraction * peak if peak > 0 else 1e-12
+        floor = floor_fraction * (peak if peak > 0 else scale)
     abs_err = np.abs(rm - em)
     rel = abs_err / np.maximum(np.abs(em), floor)
     k = np.unravel_index(int(np.argmax(rel)), rel.shape)
@@ -44,6 +49,7 @@ def compare(rendered, expected, mask, *, floor=None, floor_fraction=1e-3):
         "max_abs_error": float(abs_err.max()),
         "floor": float(floor),
         "peak": peak,
+        "scale": peak if peak > 0 else float(scale),
         "n_pixels": int(mask.sum()),
         "worst": (int(rows[k[0]]), int(cols[k[0]]), int(k[1])),
         "rendered_at_worst": float(rm[k]),

@@ -192,6 +192,13 @@ class GonioScene:
         return self.expected(lambda wi, wo, n, t: reference.shade(
             model, wi, wo, normal=n, tangent=t, **params))
 
+    def white_peak(self):
+        """The brightest radiance a white Lambertian surface shows on the
+        masked pixels (``strength * max cos_i / pi``): the scale of an
+        expectation that is black everywhere."""
+        cos_i = np.clip(self.cos_i[self.mask], 0.0, None)
+        return self.strength * max(float(cos_i.max()), 1e-6) / math.pi
+
     def mirror_peak(self, model, max_angle_deg=70.0, **params):
         """The model's value with the light in each masked pixel's mirror
         direction (the peak of a lobe around it), largest over the pixels

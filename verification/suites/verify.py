@@ -179,23 +179,24 @@ def _render_and_compare(g, expected, keep_images, screen_space_shadows=False, mo
         black = g.mask & np.all(img == 0.0, axis=-1) & lit
         false_shadow = int(black.sum())
         mask = g.mask & ~black
-    stats = gonio.compare(img, expected, mask)
+    white = g.white_peak()   # the scale where the expectation is black everywhere
+    stats = gonio.compare(img, expected, mask, scale=white)
     # the fitted mixtures' domain: views and lights up to 70 deg from the normal
     cos_fit = math.cos(math.radians(FIT_DOMAIN_DEG))
     in_fit = mask & (g.cos_i >= cos_fit) & (g.cos_o >= cos_fit)
-    fit_stats = gonio.compare(img, expected, in_fit) if in_fit.any() else None
+    fit_stats = gonio.compare(img, expected, in_fit, scale=white) if in_fit.any() else None
     # over the model's peak (its mirror-direction value, ``model_peak``) where
     # the image holds less: a narrow lobe's highlight may fall between pixels
-    fit_peak = max(fit_stats["peak"], model_peak) if fit_stats else 0.0
+    fit_peak = max(fit_stats["peak"], model_peak) or white if fit_stats else 0.0
     entry = {"light_dir": [float(x) for x in g.light_dir],
              "max_abs_over_peak_fit_domain": (
                  fit_stats["max_abs_error"] / fit_peak if fit_peak > 0 else 0.0),
              "finite": bool(np.isfinite(img).all()),
-             "lit": bool(np.any(img[g.mask] > 0)),
+             # light where the model has some (a black model renders black)
+             "lit": bool(np.any(img[g.mask] > 0) or not np.any(expected[g.mask] > 0)),
              "max_rel_error": stats["max_rel_error"], "rms_rel_error": stats["rms_rel_error"],
              "n_pixels": stats["n_pixels"], "worst": stats["worst"],
-             "max_abs_over_peak": stats["max_abs_error"] / stats["peak"] if stats["peak"] > 0
-             else float("inf"),
+             "max_abs_over_peak": stats["max_abs_error"] / stats["scale"],
              "render_seconds": g.last_render_seconds, "false_shadow": false_shadow,
              "lit_pixels": int(np.sum(g.mask & np.any(expected > 0.0, axis=-1)))}
     if keep_images:
