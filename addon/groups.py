@@ -36,7 +36,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 6  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 7  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -44,6 +44,9 @@ NODES_VERSION = 6  # 2: a closure-only shader feeds the BSDF output;
 # 6: exact mode's cos^s from the angle's tangent and beta's tan / -2 ln cos
 #    from their series below 8.6 deg (float32 precision of narrow lobes), so
 #    that groups saved before get them
+# 7: fewer native nodes in exact mode (one Reflect node for Phong's mirror
+#    direction, a colour times one masked float): cheaper groups for files
+#    saved before
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

@@ -110,6 +110,27 @@ def test_a_packed_vector_stays_whole_and_folds_like_a_constant():
     assert s - E.packed(0.0, 0.0, 0.0) is s
 
 
+def test_negations_cancel_in_products_and_comparisons_with_zero():
+    """(-x)(-y) is x y and -x > 0 is x < 0 (NaN is neither), so a cosine
+    taken from a reflected vector costs no extra node."""
+    x, y = E.input_("x_sign_test"), E.input_("y_sign_test")
+    assert (-x) * (-y) is x * y
+    assert E.gt(-x, 0.0) is E.lt(x, 0.0)
+    assert E.lt(-x, 0.0) is E.gt(x, 0.0)
+    assert E.gt(-x, 1.0).op == "gt" and E.gt(-x, 1.0).args[0].op == "neg"  # only against 0
+
+
+def test_reflect_is_one_operation_on_both_backends():
+    from addon.backends.native import emit as native_emit
+    from addon.backends.osl import emit as osl_emit
+
+    r = E.reflect(E.geometry("I"), E.geometry("N"))
+    nodes, _refs = native_emit.plan({"R": r})
+    assert [(n.type, n.props.get("operation")) for n in nodes] == \
+        [("ShaderNodeVectorMath", "REFLECT")]
+    assert "reflect(rm_view(), N)" in "\n".join(osl_emit.statements({"R": r}, {}))
+
+
 def test_a_vector_chebyshev_series_is_three_scalar_series():
     """Clenshaw's recurrence with packed coefficients gives, per component,
     the scalar recurrence's value (checked numerically at a constant t,

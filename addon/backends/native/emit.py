@@ -47,6 +47,8 @@ def _is_zero(e) -> bool:
         return e.data == 0.0
     if e.op == "vlit":
         return all(x == 0.0 for x in e.data)
+    if e.op == "vec":
+        return all(_is_zero(x) for x in e.args)
     return False
 RAY_OFFSET = 1e-4
 
@@ -232,6 +234,8 @@ class Planner:
             return self.vmath("SCALE", self._r(a[0]), scale=self._r(a[1]))
         if op == "dot":
             return self.vmath("DOT_PRODUCT", self._r(a[0]), self._r(a[1]))
+        if op == "reflect":
+            return self.vmath("REFLECT", self._r(a[0]), self._r(a[1]))
         if op == "cross":
             return self.vmath("CROSS_PRODUCT", self._r(a[0]), self._r(a[1]))
         if op == "length":

@@ -298,6 +298,8 @@ def _binary(op, a, b):
             return neg(b)
         if cb == -1.0:
             return neg(a)
+        if a.op == "neg" and b.op == "neg":  # (-x)(-y) = x y
+            return _binary("mul", a.args[0], b.args[0])
         if a.skey > b.skey:  # commutative: one order
             a, b = b, a
     elif op == "div":
@@ -310,6 +312,9 @@ def _binary(op, a, b):
             return a
         if cb == 0.0:
             return const(1.0)
+    elif op in ("gt", "lt") and a.op == "neg" and cb == 0.0:
+        # -x > 0 is x < 0 (and NaN is neither)
+        return _make("lt" if op == "gt" else "gt", (a.args[0], b), "f")
     elif op in ("min", "max"):
         if a is b:
             return a
@@ -559,6 +564,13 @@ def dot(a, b):
 def cross(a, b):
     a, b = wrap(a), wrap(b)
     return _make("cross", (a, b), "v")
+
+
+def reflect(i, n):
+    """``i - 2 (n.i) n``, the mirror image of ``i`` in the plane of the unit
+    vector ``n`` (the Vector Math node normalises ``n`` first)."""
+    i, n = wrap(i), wrap(n)
+    return _make("reflect", (i, n), "v")
 
 
 def length(a):

@@ -68,10 +68,11 @@ def one_plus_to_the(x, y):
     """(1 + x)^y for x >= 0, accurate where 1 + x rounds: exp(y log1p(x))
     with log1p as in :func:`log1p` (Goldberg), written as one power,
     u^(y x/(u - 1)) with u = 1 + x, instead of a logarithm and an
-    exponential (in SVM the logarithm node takes two logarithms)."""
+    exponential (in SVM the logarithm node takes two logarithms).  Where
+    1 + x rounds to 1 the division gives 0 (``div``) and the power 1, as
+    1^y would."""
     u = 1.0 + x
-    r = select(gt(u, 1.0), div(x, u - 1.0), 1.0)
-    return E.pow_(u, y * r)
+    return E.pow_(u, y * div(x, u - 1.0))
 
 
 def erfc(x):

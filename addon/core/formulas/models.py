@@ -136,7 +136,9 @@ class Lambert(Formula):
 
     def evaluate(self, v, s, wi):
         ci, co = E.dot(s.n, wi), E.dot(s.n, s.wo)
-        value = select(_upper(ci, co), v.p("albedo") * (ci * (1.0 / PI)), vec(0.0, 0.0, 0.0))
+        # the colour times a masked float (one product per channel, not two);
+        # max(0, cos theta_i) and the view's test: the upper hemisphere
+        value = v.p("albedo") * select(gt(co, 0.0), fmax(ci, 0.0) * (1.0 / PI), 0.0)
         return {"value": value, "cos_theta_i": ci, "cos_theta_o": co}
 
     def closure(self, v, s):
@@ -160,11 +162,11 @@ class Phong(Formula):
     def evaluate(self, v, s, wi):
         se = v.p("exponent")
         ci, co = E.dot(s.n, wi), E.dot(s.n, s.wo)
-        cs = 2.0 * ci * co - E.dot(wi, s.wo)  # E.R(L)
-        t = E.cross(E.vscale(s.n, 2.0 * ci) - wi, s.wo)  # R(L) x E: |R x E| = sin
+        m = E.reflect(wi, s.n)  # -R(L): one Vector Math node
+        cs = -E.dot(m, s.wo)  # E.R(L)
+        t = E.cross(m, s.wo)  # |R(L) x E| = sin
         lobe = L.lobe_of_tangent(cs, E.dot(t, t), se)
-        value = select(_upper(ci, co), v.p("ks") * (self._norm(v, se) * lobe * ci),
-                       vec(0.0, 0.0, 0.0))
+        value = v.p("ks") * select(gt(co, 0.0), self._norm(v, se) * lobe * fmax(ci, 0.0), 0.0)
         return {"value": value, "Lobe": lobe, "cos_theta_s": cs, "cos_theta_i": ci,
                 "cos_theta_o": co}
 
@@ -199,8 +201,7 @@ class BlinnPhong(Formula):
         hl = E.length(h)
         ch = select(gt(hl, 0.0), div(E.dot(s.n, h), hl), 0.0)
         lobe = L.lobe_between(s.n, h, se)
-        value = select(_upper(ci, co), v.p("ks") * (self._norm(v, se) * lobe * ci),
-                       vec(0.0, 0.0, 0.0))
+        value = v.p("ks") * select(gt(co, 0.0), self._norm(v, se) * lobe * fmax(ci, 0.0), 0.0)
         return {"value": value, "Lobe": lobe, "cos_theta_h": ch, "cos_theta_i": ci,
                 "cos_theta_o": co}
 
@@ -345,7 +346,7 @@ class Microfacet(Formula):
 
         ok = _upper(ci, co) * gt(ch, 0.0)
         zero = vec(0.0, 0.0, 0.0)
-        value = select(ok, (v.p("ks") * F) * (G * D * div(1.0, 4.0 * co)), zero)
+        value = (v.p("ks") * F) * select(ok, G * D * div(1.0, 4.0 * co), 0.0)
         return {"value": value, "D": select(ok, D, 0.0), "G": select(ok, G, 0.0),
                 "F": select(ok, F, zero), "cos_theta_i": ci, "cos_theta_o": co,
                 "cos_theta_h": ch, "cos_theta_d": cd}
@@ -500,7 +501,7 @@ class Ward(Formula):
         e = div(x * x + y * y, h[2] * h[2])
         ok = _upper(ci, co)
         lobe = select(ok, div(E.exp(-e), 4.0 * PI * ax * ay * E.sqrt(ci * co)), 0.0)
-        value = select(ok, v.p("ks") * (lobe * ci), vec(0.0, 0.0, 0.0))
+        value = v.p("ks") * (lobe * ci)  # the lobe is 0 where not ok
         return {"value": value, "Lobe": lobe, "cos_theta_i": ci, "cos_theta_o": co}
 
     def closure(self, v, s):
