@@ -484,6 +484,10 @@ def test_presets_are_the_named_microfacet_models():
     (lambda w: R.shade("phong", w, w, exponent=-1), r"\[0, 10000\]"),
     (lambda w: R.shade("phong", w, w, exponent=float("nan")), "exponent must be"),
     (lambda w: R.shade("phong", w, w, ks=None), r"ks=None is not allowed; ks must be an RGB"),
+    # numpy would read a string as its number and True as 1: not numbers here
+    (lambda w: R.shade("phong", w, w, exponent="20"), r"exponent='20' is not allowed"),
+    (lambda w: R.shade("phong", w, w, exponent=True), r"exponent=True is not allowed"),
+    (lambda w: R.shade("phong", w, w, ks=("1", "1", "1")), r"ks=.* is not allowed; ks must be"),
     (lambda w: R.shade("microfacet", w, w, distribution="ggx"), "'trowbridge_reitz'"),
     (lambda w: R.shade("microfacet", w, w, beta=0.0), "beta must be"),
     (lambda w: R.shade("microfacet", w, w, beta=0.3, alpha=0.2), "one width"),

@@ -24,7 +24,10 @@ def check_value(p, value):
     if value is None:  # numpy would make it NaN and call it out of range
         raise ValueError(f"{p.name}=None is not allowed; {p.name} must be {p.allowed()}")
     try:
-        arr = np.asarray(value, dtype=float)
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iuf":  # numpy would read '20' as 20 and True as 1
+            raise TypeError
+        arr = raw.astype(float)
     except (TypeError, ValueError):
         raise ValueError(f"{p.name}={value!r} is not allowed; {p.name} must be {p.allowed()}") from None
     if np.isnan(arr).any() or (p.minimum is not None and (arr < p.minimum).any()) or (
