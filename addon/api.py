@@ -154,6 +154,9 @@ def add_model(material, model: str, mode: str = "path_traced", *, backend: str =
     value.
     Does not touch the scene: see :func:`enable_osl`.
     """
+    if not isinstance(material, bpy.types.Material):
+        raise ValueError(f"add_model needs a material (bpy.types.Material), not "
+                         f"{type(material).__name__}")
     _check_mode(mode)
     base, enums, values, _given = _split(model, params, backend=backend)
     socket_values = _socket_values(base, enums, values,
@@ -293,9 +296,11 @@ def ensure_groups() -> dict:
 # ---------------------------------------------------------------------------
 # The scene
 
-def osl_status(scene) -> tuple:
-    """``(problems, warnings)``: why ``scene`` cannot run the OSL shaders
-    (empty when it can), and caveats (OptiX: no shadow rays)."""
+def osl_status(scene=None) -> tuple:
+    """``(problems, warnings)``: why ``scene`` (default: the context scene)
+    cannot run the OSL shaders (empty when it can), and caveats (OptiX: no
+    shadow rays)."""
+    scene = scene or bpy.context.scene
     problems, warnings = [], []
     engine = scene.render.engine
     if engine != 'CYCLES':
@@ -314,12 +319,13 @@ def osl_status(scene) -> tuple:
     return problems, warnings
 
 
-def rendering_backend(scene) -> tuple:
+def rendering_backend(scene=None) -> tuple:
     """``(backend, reason)``: which shaders an 'auto' node renders with in
-    ``scene`` as it is set now: ``"osl"`` (Cycles on the CPU, or OptiX,
-    with Open Shading Language on), ``"native"`` (every other Cycles set-up
-    and EEVEE), or ``"none"`` (an engine that draws no materials, e.g.
-    Workbench)."""
+    ``scene`` (default: the context scene) as it is set now: ``"osl"``
+    (Cycles on the CPU, or OptiX, with Open Shading Language on),
+    ``"native"`` (every other Cycles set-up and EEVEE), or ``"none"`` (an
+    engine that draws no materials, e.g. Workbench)."""
+    scene = scene or bpy.context.scene
     engine = scene.render.engine
     if engine != 'CYCLES':
         if engine.startswith('BLENDER_EEVEE'):

@@ -160,6 +160,21 @@ def test_add_model_rejects_bad_arguments(api, bpy, model, kwargs, match):
     assert len(mat.node_tree.nodes) == n_nodes
 
 
+def test_add_model_needs_a_material(api, bpy):
+    world = bpy.data.worlds.new("rm_not_a_material")
+    try:
+        for target in (None, world, "Material"):
+            with pytest.raises(ValueError, match="needs a material"):
+                api.add_model(target, "lambert")
+    finally:
+        bpy.data.worlds.remove(world)
+
+
+def test_the_scene_functions_default_to_the_context_scene(api, bpy):
+    assert api.rendering_backend() == api.rendering_backend(bpy.context.scene)
+    assert api.osl_status() == api.osl_status(bpy.context.scene)
+
+
 def test_set_params_changes_values_and_variant(api, bpy):
     mat = new_material(bpy)
     node = api.add_model(mat, "microfacet", distribution="trowbridge_reitz", alpha=0.3)
