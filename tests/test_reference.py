@@ -478,6 +478,39 @@ def test_presets_are_the_named_microfacet_models():
         R.shade("cook_torrance", wi, wo, distribution="gaussian")
 
 
+@pytest.mark.parametrize("model,params", [
+    ("phong", {"exponent": 30.0}), ("microfacet", {"distribution": "trowbridge_reitz",
+                                                   "alpha": 0.3, "fresnel": "conductor",
+                                                   "ior": 0.2, "k": 3.0}),
+    ("ward", {"alpha_x": 0.2, "alpha_y": 0.5}), ("kajiya_kay", {}),
+])
+def test_directions_of_any_length_are_directions(model, params):
+    """wi, wo, the normal and the tangent are scaled to unit length (as the
+    shaders do); a zero, NaN or infinite vector has no direction and gives
+    0, never NaN."""
+    rng = np.random.default_rng(7)
+    wi, wo = sph(0.5, 0.3), sph(0.7, 2.5)
+    n = np.array([0.1, -0.2, 1.0]) / np.linalg.norm([0.1, -0.2, 1.0])
+    t = np.array([1.0, 0.3, 0.0])
+    unit = R.shade(model, wi, wo, normal=n, tangent=t / np.linalg.norm(t), **params)
+    assert np.all(unit > 0)
+    for _ in range(5):
+        a, b, c, d = rng.uniform(1e-3, 1e3, 4)
+        scaled = R.shade(model, a * wi, b * wo, normal=c * n, tangent=d * t, **params)
+        np.testing.assert_allclose(scaled, unit, rtol=1e-12)  # float64 rounding of a rescale
+    for bad in (np.zeros(3), np.array([np.nan, 0.0, 1.0]), np.array([np.inf, 0.0, 1.0])):
+        for kw in ({"wi": bad, "wo": wo}, {"wi": wi, "wo": bad}):
+            out = R.shade(model, kw["wi"], kw["wo"], normal=n, tangent=t, **params)
+            assert np.all(out == 0.0), (bad, out)
+    # a tangent with no direction: the frame's, the x axis on the surface (as
+    # the shaders' frame without a UV map)
+    x = np.array([1.0, 0.0, 0.0])
+    default = R.shade(model, wi, wo, normal=n, tangent=x - np.dot(x, n) * n, **params)
+    for bad in (np.zeros(3), np.array([np.nan, 0.0, 1.0]), np.array([np.inf, 0.0, 0.0])):
+        out = R.shade(model, wi, wo, normal=n, tangent=bad, **params)
+        np.testing.assert_allclose(out, default, rtol=1e-12)
+
+
 @pytest.mark.parametrize("call,match", [
     (lambda w: R.shade("glossy", w, w), "allowed: lambert"),
     (lambda w: R.shade("phong", w, w, shininess=3), "allowed: exponent"),

@@ -9,9 +9,10 @@ Public API (scripts and tests depend on it)::
 ``shade`` is the radiance reflected toward ``wo`` under a directional light of
 unit irradiance: what a pixel of an orthographic Cycles render under a sun of
 strength 1 shows.  For surface models it is ``brdf * max(0, normal . wi)``.
-Directions are unit vectors pointing away from the surface (``wi`` toward the
-light, ``wo`` toward the eye) and broadcast over leading axes, as do
-array-valued parameters.  Colours are RGB triples (a trailing axis of length 3);
+Directions point away from the surface (``wi`` toward the light, ``wo``
+toward the eye; ``normal``, ``tangent``), are scaled to unit length (a zero
+vector, or one with a NaN or infinite component, has no direction and gives
+0) and broadcast over leading axes, as do array-valued parameters.  Colours are RGB triples (a trailing axis of length 3);
 a scalar colour is grey.  Angles are radians.
 
 Also public: the microfacet distributions as types (:func:`distribution`,

@@ -34,6 +34,18 @@ def _dot(a, b):
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
+def _unit(v):
+    """``v`` scaled to unit length; a zero vector, or one with a NaN or
+    infinite component, becomes zero (it has no direction: the result is
+    0, as the shaders give)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.sqrt(_dot(v, v))
+    ok = (inv > 0.0) & (inv < np.inf)  # NaN compares false
+    if np.all(ok):
+        return v * inv[..., None]
+    return np.where(ok[..., None], v, 0.0) * np.where(ok, inv, 0.0)[..., None]
+
+
 def _frame(normal, tangent):
     """Rows (t, b, n): the tangent projected on the surface, n x t, the normal.
 
@@ -43,9 +55,10 @@ def _frame(normal, tangent):
     """
     n = _vec(normal, "normal")
     t = _vec(tangent, "tangent")
-    t = t - _dot(t, n)[..., None] * n
-    length = np.sqrt(_dot(t, t))
-    bad = length < 1e-6
+    with np.errstate(invalid="ignore"):  # an infinite tangent: NaN, then the fallback
+        t = t - _dot(t, n)[..., None] * n
+        length = np.sqrt(_dot(t, t))
+    bad = ~(length >= 1e-6)  # short, or NaN (a NaN or infinite tangent)
     if np.any(bad):
         axis = np.where((np.abs(n[..., 0]) < 0.9)[..., None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
         fallback = axis - _dot(axis, n)[..., None] * n
@@ -178,28 +191,36 @@ _BRDFS = {
 }
 
 
-def shade_kajiya_kay(wi, wo, tangent, v):
+def shade_kajiya_kay(wi, wo, tangent, v, normal=DEFAULT_NORMAL):
     """Slide "Kay-Kajiya Model": kd sin(theta_L) + ks cos^s(angle to the mirror cone).
 
     With both directions pointing away from the fibre the cone is T.E = -T.L,
     so the specular term is max(0, sinL sinE - cosL cosE)^s (lecture notes).
     """
-    t = _vec(tangent, "tangent")
-    t = t / np.sqrt(_dot(t, t))[..., None]
+    t = _unit(_vec(tangent, "tangent"))
+    none = _dot(t, t) == 0.0
+    if np.any(none):  # no direction given: the frame's tangent, as the shaders
+        t = np.where(none[..., None], _frame(normal, np.zeros(3))[..., 0, :], t)
     cl = _dot(t, _vec(wi, "wi"))
     ce = _dot(t, _vec(wo, "wo"))
     sl = np.sqrt(np.maximum(1.0 - cl * cl, 0.0))
     se = np.sqrt(np.maximum(1.0 - ce * ce, 0.0))
     spec = _lobe(sl * se - cl * ce, v["exponent"])
-    return sl[..., None] * v["kd"] + spec[..., None] * v["ks"]
+    out = sl[..., None] * v["kd"] + spec[..., None] * v["ks"]
+    # a zero direction (given as zero, NaN or infinite: _unit) lights nothing
+    wi, wo = _vec(wi, "wi"), _vec(wo, "wo")
+    seen = (_dot(wi, wi) > 0.0) & (_dot(wo, wo) > 0.0)
+    return out if np.all(seen) else out * seen[..., None]
 
 
 CHUNK = 1 << 15  # elements per slice: the temporaries stay in the CPU cache
 
 
 def _kernel(model, v, wi, wo, normal, tangent, with_cosine):
+    # unit directions, per chunk (the temporaries stay in the CPU cache)
+    wi, wo, normal = _unit(wi), _unit(wo), _unit(normal)
     if model.kind == "fibre":
-        return shade_kajiya_kay(wi, wo, tangent, v)
+        return shade_kajiya_kay(wi, wo, tangent, v, normal)
     li, lo = _local(wi, wo, normal, tangent)
     wdot = _dot(wi, wo) if model.id in ("phong", "blinn_phong") else None
     out = _BRDFS[model.id](li, lo, wdot, v)
