@@ -36,6 +36,7 @@ be bit-identical.  The render keeps its optimised shaders between renders
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -612,6 +613,83 @@ def test_bad_values_through_links_render_like_the_limit_in_native_nodes(bench, v
     finally:
         scene.cycles.shading_system = True
     print(f"{variant.id} native: {len(cases)} cases, non-black references: {nonzero}")
+    assert not problems, "\n".join(problems)
+    for output, count in nonzero.items():
+        assert count >= len(cases) // 2, (output, count)
+
+
+@contextlib.contextmanager
+def _eevee(scene):
+    """The bench's scene rendered by EEVEE, its Cycles settings restored after."""
+    r = scene.render
+    saved = {k: getattr(r, k) for k in ("engine", "filter_size", "film_transparent",
+                                        "use_persistent_data")}
+    common.configure_eevee(scene, samples=1)
+    try:
+        yield
+    finally:
+        for k, value in saved.items():
+            setattr(r, k, value)
+
+
+def _is_plus_inf(value):
+    values = value if isinstance(value, tuple) else (value,)
+    return any(isinstance(x, float) and x == math.inf for x in values)
+
+
+def test_eevee_reads_an_infinite_face_attribute_of_the_bench_as_zero(bench):
+    """Why the EEVEE test below leaves +inf out: on this bench's mesh EEVEE
+    delivers an infinite face attribute as 0 (Cycles delivers it as inf),
+    so those cases would not reach the graph.  (In a small test mesh EEVEE
+    does deliver inf, and the graphs clamp it like the limit.)  If EEVEE
+    starts delivering it here, this fails: put the +inf cases back."""
+    bpy = bench.bpy
+    mat, tree, out = _new_material(bpy, "rob_eevee_inf")
+    attr = _attribute_node(tree, attr_name("albedo"))
+    sep = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(attr.outputs["Vector"], sep.inputs[0])
+    big = tree.nodes.new("ShaderNodeMath")
+    big.operation = 'GREATER_THAN'
+    big.inputs[1].default_value = 1e30
+    tree.links.new(sep.outputs[0], big.inputs[0])
+    emit = tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(big.outputs[0], emit.inputs["Strength"])
+    tree.links.new(emit.outputs[0], out.inputs["Surface"])
+    bench.set_materials([mat], [0] * (GRID * GRID))
+    inputs = {"albedo": Input("albedo", "RGBA", (0.5, 0.5, 0.5), 0.0, 1.0)}
+    rows = [{"albedo": (math.inf,) * 3} if r % 2 else {} for r in range(GRID)]
+    bench.set_rows(inputs, rows)
+    seen = {}
+    with _eevee(bench.g.scene):
+        seen["eevee"] = bench.render()
+    seen["cycles"] = bench.render()
+    bench.mesh.materials.clear()
+    bpy.data.materials.remove(mat)
+    for engine, img in seen.items():
+        lit = [bool(np.any(_row(img, r) > 0.5)) for r in range(GRID)]
+        assert lit == ([r % 2 == 1 for r in range(GRID)] if engine == "cycles"
+                       else [False] * GRID), (engine, lit)
+
+
+EEVEE_VARIANTS = [v for v in VARIANTS if v.id in ("lambert", "phong", "ward",
+                                                   "microfacet_alpha_conductor")]
+
+
+@pytest.mark.parametrize("variant", EEVEE_VARIANTS, ids=lambda v: v.id)
+def test_bad_values_through_links_render_like_the_limit_in_eevee(bench, variant):
+    """The same cases through the native nodes in EEVEE (software EGL,
+    half-float output); bit-identical to the limit's render.  Left out: +inf
+    (the test above) and a tangent along the normal: computed here from the
+    tile's exact normal, it renders 0.7 % off the fallback's render in
+    EEVEE (Ward, 48 pixels), where Cycles matches to 1e-6.  The likely
+    cause: the GPU's normals are quantised, so the tangent is not along
+    EEVEE's normal within the 1e-6 at which the graphs take it for one."""
+    cases = [c for c in variant_cases(variant)
+             if not any(_is_plus_inf(v) for v in c.values.values())
+             and c.label != "tangent along the normal"]
+    with _eevee(bench.g.scene):
+        problems, nonzero = render_linked_cases(bench, variant, cases, linked_group_material)
+    print(f"{variant.id} EEVEE: {len(cases)} cases, non-black references: {nonzero}")
     assert not problems, "\n".join(problems)
     for output, count in nonzero.items():
         assert count >= len(cases) // 2, (output, count)
