@@ -22,7 +22,8 @@ def compare(rendered, expected, mask, *, floor=None, floor_fraction=1e-3, scale=
 
     Returns a dict with ``max_rel_error``, ``rms_rel_error``,
     ``max_abs_error``, ``floor``, ``n_pixels`` (masked pixels), ``peak``
-    (largest |e|), ``scale`` (``peak``, or ``scale`` where it is 0), ``worst`` ((row, column, channel) of the largest relative
+    (largest |e|), ``scale`` (``peak``, or ``scale`` where it is 0),
+    ``worst`` ((row, column, channel) of the largest relative
     error) and the rendered and expected values there.
     """
     r = np.asarray(rendered, dtype=np.float64)[..., :3]

@@ -187,7 +187,7 @@ def _render_and_compare(g, expected, keep_images, screen_space_shadows=False, mo
     fit_stats = gonio.compare(img, expected, in_fit, scale=white) if in_fit.any() else None
     # over the model's peak (its mirror-direction value, ``model_peak``) where
     # the image holds less: a narrow lobe's highlight may fall between pixels
-    fit_peak = max(fit_stats["peak"], model_peak) or white if fit_stats else 0.0
+    fit_peak = (max(fit_stats["peak"], model_peak) or white) if fit_stats else 0.0
     entry = {"light_dir": [float(x) for x in g.light_dir],
              "max_abs_over_peak_fit_domain": (
                  fit_stats["max_abs_error"] / fit_peak if fit_peak > 0 else 0.0),

@@ -129,7 +129,8 @@ class _Emitter:
                   "pow": "rm_pow", "exp": "exp", "sin": "sin", "cos": "cos", "tan": "tan",
                   "atan": "atan", "atan2": "atan2", "abs": "abs", "floor": "floor",
                   "min": "min", "max": "max", "finite": "rm_finite", "dot": "dot",
-                  "cross": "cross", "reflect": "reflect", "length": "length", "normalize": "rm_normalize"}
+                  "cross": "cross", "reflect": "reflect", "length": "length",
+                  "normalize": "rm_normalize"}
         if op in simple:
             return f"{simple[op]}({', '.join(a)})"
         if op == "gt":

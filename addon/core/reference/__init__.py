@@ -12,8 +12,9 @@ strength 1 shows.  For surface models it is ``brdf * max(0, normal . wi)``.
 Directions point away from the surface (``wi`` toward the light, ``wo``
 toward the eye; ``normal``, ``tangent``), are scaled to unit length (a zero
 vector, or one with a NaN or infinite component, has no direction and gives
-0) and broadcast over leading axes, as do array-valued parameters.  Colours are RGB triples (a trailing axis of length 3);
-a scalar colour is grey.  Angles are radians.
+0) and broadcast over leading axes, as do array-valued parameters.  Colours
+are RGB triples (a trailing axis of length 3); a scalar colour is grey.
+Angles are radians.
 
 Also public: the microfacet distributions as types (:func:`distribution`,
 :class:`Blinn`, :class:`Gaussian`, :class:`TrowbridgeReitz`,
