@@ -23,13 +23,14 @@ def check_value(p, value):
         return value
     if value is None:  # numpy would make it NaN and call it out of range
         raise ValueError(f"{p.name}=None is not allowed; {p.name} must be {p.allowed()}")
+    not_allowed = f"{p.name}={value!r} is not allowed; {p.name} must be {p.allowed()}"
     try:
         raw = np.asarray(value)
-        if raw.dtype.kind not in "iuf":  # numpy would read '20' as 20 and True as 1
-            raise TypeError
-        arr = raw.astype(float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{p.name}={value!r} is not allowed; {p.name} must be {p.allowed()}") from None
+    except (TypeError, ValueError):  # e.g. ragged lists
+        raise ValueError(not_allowed) from None
+    if raw.dtype.kind not in "iuf":  # numpy would read '20' as 20 and True as 1
+        raise ValueError(not_allowed)
+    arr = raw.astype(float)
     if np.isnan(arr).any() or (p.minimum is not None and (arr < p.minimum).any()) or (
             p.maximum is not None and (arr > p.maximum).any()):
         bad = arr if arr.ndim == 0 else arr[np.isnan(arr) | (arr < (p.minimum if p.minimum is not None else -np.inf))

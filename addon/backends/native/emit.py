@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from addon.core.formulas import expr as E
 
 FLT_MAX = 3.4028234663852886e38
+RAY_OFFSET = 1e-4
 
 
 def _is_zero(e) -> bool:
@@ -50,7 +51,6 @@ def _is_zero(e) -> bool:
     if e.op == "vec":
         return all(_is_zero(x) for x in e.args)
     return False
-RAY_OFFSET = 1e-4
 
 
 @dataclass

@@ -122,11 +122,12 @@ class Formula:
         """The path-traced BSDF from the closures the backend offers (``s.caps``)."""
         raise NotImplementedError
 
-    def fidelity(self, enums: dict, caps=ALL_CLOSURES) -> str:
+    def fidelity(self, enums: dict, caps=ALL_CLOSURES, params=None) -> str:
         """How the path-traced output matches the model: 'exact' (a closure is
         the model), 'near' (a closure within a documented difference),
         'fitted' (a fitted mixture whose error is measured and bounded),
-        'approx' (the best mixture or lobe, measured, no bound)."""
+        'approx' (the best mixture or lobe, measured, no bound).  ``params``:
+        the widths where known (only the microfacet model's matter)."""
         return "approx"
 
 
@@ -145,7 +146,7 @@ class Lambert(Formula):
         # Exact: diffuse() is Lambert.
         return closure("diffuse", v.p("albedo"), s.n)
 
-    def fidelity(self, enums, caps=ALL_CLOSURES):
+    def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return "exact"
 
 
@@ -181,7 +182,7 @@ class Phong(Formula):
         # to the lecture's form, times the normalisation.
         return _fitted_lobes("phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
 
-    def fidelity(self, enums, caps=ALL_CLOSURES):
+    def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return "exact" if "phong_ramp" in caps else fit_status("phong")
 
 
@@ -212,7 +213,7 @@ class BlinnPhong(Formula):
         se = v.p("exponent")
         return _fitted_lobes("blinn_phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
 
-    def fidelity(self, enums, caps=ALL_CLOSURES):
+    def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return fit_status("blinn_phong")
 
 
@@ -559,11 +560,7 @@ def path_traced_status(model_id: str, enums: dict, params=None, blender_version=
     approx), a Blender version and a backend (``"osl"``, or ``"native"``
     nodes)."""
     caps = ALL_CLOSURES if backend == "osl" else NATIVE_CLOSURES
-    formula = FORMULAS[model_id]
-    if model_id == "microfacet" and params is not None:
-        status = formula.fidelity(enums, caps, params=params)
-    else:
-        status = formula.fidelity(enums, caps)
+    status = FORMULAS[model_id].fidelity(enums, caps, params=params)
     # 4.5's conductor closure is an older approximation; the native nodes
     # also carry a dielectric's Fresnel through it (k = 0)
     through_conductor = enums.get("fresnel") == "conductor" or (

@@ -208,7 +208,6 @@ def shade_kajiya_kay(wi, wo, tangent, v, normal=DEFAULT_NORMAL):
     spec = _lobe(sl * se - cl * ce, v["exponent"])
     out = sl[..., None] * v["kd"] + spec[..., None] * v["ks"]
     # a zero direction (given as zero, NaN or infinite: _unit) lights nothing
-    wi, wo = _vec(wi, "wi"), _vec(wo, "wo")
     seen = (_dot(wi, wi) > 0.0) & (_dot(wo, wo) > 0.0)
     return out if np.all(seen) else out * seen[..., None]
 
