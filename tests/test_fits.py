@@ -46,3 +46,25 @@ def test_gaussian_norm_series_matches_the_quadrature():
     c2 = R.gaussian_c2_from_beta(beta)
     series = c2 * c2 / math.pi * np.exp(np.polynomial.chebyshev.chebval(t, S.GAUSSIAN_NORM))
     assert np.max(np.abs(series / R.gaussian_norm(beta) - 1)) < 5e-9
+
+
+def test_the_shaders_power_form_of_every_weight_series_is_the_series():
+    """The shaders sum each fitted weight series in powers of the view
+    variable (Horner's rule); in float32 it must be the committed Chebyshev
+    series within 2e-5 of the sum of the series' |coefficients| (float32:
+    the powers' coefficients sum to at most ~100 times the series'), at
+    every width node, member and view."""
+    from addon.core.fits import mixtures as data
+    from addon.core.formulas.mixtures import power_coefficients
+
+    u = np.linspace(-1.0, 1.0, 41)
+    for key, d in data.FITS.items():
+        w = np.array(d["weights"])  # (n_width, K, n_view)
+        P = np.array(power_coefficients(w.shape[2]))
+        a = np.einsum("jm,nkm->nkj", P, w).astype(np.float32)
+        horner = np.zeros(a.shape[:2] + u.shape, np.float32)
+        for j in range(a.shape[2] - 1, -1, -1):
+            horner = horner * u.astype(np.float32) + a[..., j:j + 1]
+        exact = np.polynomial.chebyshev.chebval(u, np.moveaxis(w, 2, 0))
+        scale = np.abs(w).sum(axis=2, keepdims=True) + 1e-30
+        assert np.max(np.abs(horner - exact) / scale) <= 2e-5, key

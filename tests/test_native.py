@@ -263,3 +263,47 @@ def test_the_largest_native_graphs_stay_compact():
     assert ops.count("MULTIPLY_ADD") > 100
     assert sum(1 for n in nodes if n.type == "ShaderNodeVectorMath"
                and n.props.get("operation") == "MULTIPLY_ADD") >= 7 * 20
+
+
+def _plan(model, enums, output="BSDF"):
+    from addon.backends.native import emit
+    from addon.core.formulas import models as formulas
+
+    v = formulas.Values(model, enums, known=True)
+    s = formulas.shading(model, enums, caps=formulas.NATIVE_CLOSURES)
+    graphs = {"BSDF": formulas.FORMULAS[model].closure(v, s)} if output == "BSDF" else \
+        {output: formulas.exact(model, v, s)[output]}
+    return emit.plan(graphs)
+
+
+@pytest.mark.parametrize("model,enums", [
+    ("microfacet", {"distribution": "gaussian", "shadowing": "smith", "fresnel": "none",
+                    "width_mode": "beta"}),
+    ("microfacet", {"distribution": "blinn", "shadowing": "smith", "fresnel": "dielectric",
+                    "width_mode": "beta"}),
+    ("blinn_phong", {"normalization": "none"}),
+])
+def test_a_mixture_plans_no_tangent_and_three_weights_per_vector_node(model, enums):
+    """The fitted mixtures' isotropic closures link no tangent (the frame's
+    tangent is not computed for them), every planned node feeds an output,
+    and the weights' Chebyshev series runs three members per Vector Math
+    node (its recurrence: one Multiply Add and one Subtract a step)."""
+    nodes, refs = _plan(model, enums)
+    closures = [n for n in nodes if n.type in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfMetallic")]
+    assert closures and not any("Tangent" in n.inputs or "Anisotropy" in n.inputs
+                                for n in closures)
+    assert not any(src == ("geometry", "uv_tangent") for n in nodes for src in n.inputs.values())
+    used = {src[1] for n in nodes for src in n.inputs.values() if src[0] == "link"}
+    used |= {refs["BSDF"][1]}
+    assert all(n.id in used for n in nodes)
+    vector_steps = sum(1 for n in nodes if n.type == "ShaderNodeVectorMath"
+                       and n.props.get("operation") == "MULTIPLY_ADD")
+    assert vector_steps >= 7  # 8 coefficients per series: 7 steps
+
+
+def test_an_anisotropic_closure_keeps_its_tangent():
+    """Ward's anisotropic lobe: its widths differ, so its closure links the
+    tangent and an anisotropy."""
+    nodes, _refs = _plan("ward", {})
+    glossy = [n for n in nodes if n.type == "ShaderNodeBsdfGlossy"]
+    assert glossy and all("Tangent" in n.inputs and "Anisotropy" in n.inputs for n in glossy)

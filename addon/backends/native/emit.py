@@ -168,7 +168,7 @@ class Planner:
         if op == "input":
             name, source = e.data
             return ("geometry", name) if source == "geometry" else ("group", name)
-        if op == "vec":
+        if op in ("vec", "pack"):
             if all(x.op == "const" for x in a):
                 return ("const", tuple(x.data for x in a))
             return self.node("ShaderNodeCombineXYZ", {}, {i: self._r(x) for i, x in enumerate(a)})
@@ -300,14 +300,21 @@ class Planner:
         name, params = e.data
         params = dict(params)
         w = self._r(e.args[0])
-        args = [self._r(x) for x in e.args[1:]]
+        # one expression for both widths: isotropic, with no anisotropy and
+        # no tangent (nothing of the frame's tangent computed for it)
+        isotropic = name in ("microfacet", "ashikhmin_shirley", "conductor", "dielectric") \
+            and e.args[3] is e.args[4]
+        args = [None if isotropic and i == 1 else self._r(x) for i, x in enumerate(e.args[1:])]
         if name == "diffuse":
             return self.node("ShaderNodeBsdfDiffuse", {}, {"Color": w, "Normal": args[0]})
         if name in ("microfacet", "ashikhmin_shirley"):
             n, t, ax, ay = args
-            r, aniso = self._roughness(ax, ay)
             dist = "ASHIKHMIN_SHIRLEY" if name == "ashikhmin_shirley" else \
                 GLOSSY[params["distribution"]]
+            if isotropic:  # roughness sqrt(alpha)
+                return self.node("ShaderNodeBsdfGlossy", {"distribution": dist},
+                                 {"Color": w, "Roughness": self.math("SQRT", ax), "Normal": n})
+            r, aniso = self._roughness(ax, ay)
             return self.node("ShaderNodeBsdfGlossy", {"distribution": dist},
                              {"Color": w, "Roughness": r, "Anisotropy": aniso, "Normal": n,
                               "Tangent": t})
@@ -323,7 +330,8 @@ class Planner:
                 n, t, ax, ay, ior = args
                 ior = self.node("ShaderNodeCombineXYZ", {}, {0: ior, 1: ior, 2: ior})
                 k = ("const", (0.0, 0.0, 0.0))
-            return self._metallic(w, n, t, ax, ay, ior, k, GLOSSY[params["distribution"]])
+            return self._metallic(w, n, None if isotropic else t, ax, ay, ior, k,
+                                  GLOSSY[params["distribution"]])
         raise ValueError(f"no native closure {name!r}")
 
     def _metallic(self, w, n, t, ax, ay, ior, k, dist):
@@ -333,18 +341,23 @@ class Planner:
         stretches along the tangent).  Weighted by Mix Shaders: the grey
         part of the weight on one closure, what each channel has beyond it on
         a closure of that channel only."""
-        r = self.math("SQRT", self.math("SQRT", self.math("MULTIPLY", ax, ay)))
-        small = self.math("MINIMUM", ax, ay)
-        large = self.math("MAXIMUM", ax, ay)
-        aniso = self.math("DIVIDE", self.math("SUBTRACT", ("const", 1.0),
-                                              self.math("DIVIDE", small, large)), ("const", 0.9))
-        rot = self.math("MULTIPLY", self.math("LESS_THAN", ax, ay), ("const", 0.25))
+        if t is None:  # isotropic (``ax`` is ``ay``): no anisotropy, no tangent
+            shape = {"Roughness": self.math("SQRT", ax), "Normal": n}
+        else:
+            r = self.math("SQRT", self.math("SQRT", self.math("MULTIPLY", ax, ay)))
+            small = self.math("MINIMUM", ax, ay)
+            large = self.math("MAXIMUM", ax, ay)
+            aniso = self.math("DIVIDE", self.math("SUBTRACT", ("const", 1.0),
+                                                  self.math("DIVIDE", small, large)),
+                              ("const", 0.9))
+            rot = self.math("MULTIPLY", self.math("LESS_THAN", ax, ay), ("const", 0.25))
+            shape = {"Roughness": r, "Anisotropy": aniso, "Rotation": rot, "Normal": n,
+                     "Tangent": t}
 
         def metal(ior_, k_):
             return self.node("ShaderNodeBsdfMetallic",
                              {"distribution": dist, "fresnel_type": "PHYSICAL_CONDUCTOR"},
-                             {"IOR": ior_, "Extinction": k_, "Roughness": r, "Anisotropy": aniso,
-                              "Rotation": rot, "Normal": n, "Tangent": t})
+                             {"IOR": ior_, "Extinction": k_, **shape})
 
         def scaled(shader, s):
             fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
@@ -374,7 +387,23 @@ def plan(outputs: dict, *, raycast: bool = True):
     has the Raycast node, see :mod:`.build`)."""
     p = Planner(raycast=raycast)
     refs = p.run(outputs)
-    return p.nodes, refs
+    return _reachable(p.nodes, refs.values()), refs
+
+
+def _reachable(nodes, sources):
+    """The nodes some output depends on, in their order (an expression is
+    planned whole before the node that uses it: an isotropic closure's
+    tangent, which it does not link, leaves nodes nothing reads)."""
+    by_id = {n.id: n for n in nodes}
+    keep = set()
+    stack = [s[1] for s in sources if s is not None and s[0] == "link"]
+    while stack:
+        i = stack.pop()
+        if i in keep:
+            continue
+        keep.add(i)
+        stack += [src[1] for src in by_id[i].inputs.values() if src[0] == "link"]
+    return [n for n in nodes if n.id in keep]
 
 
 def count(outputs: dict, **caps) -> int:

@@ -144,7 +144,7 @@ class _Emitter:
             return f"rm_clamp({a[0]}, {number(lo)}, {number(hi)})"
         if op == "table":
             return f"rm_table({self.names[('table', id(n))]}, {a[0]})"
-        if op == "vec":
+        if op in ("vec", "pack"):
             return f"vector({', '.join(a)})"
         if op == "comp":
             return f"{a[0]}[{n.data}]"

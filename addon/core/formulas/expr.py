@@ -164,6 +164,20 @@ def packed(x, y, z) -> Expr:
     return _make("vlit", (), "v", tuple(0.0 if float(v) == 0.0 else float(v) for v in (x, y, z)))
 
 
+def pack(x, y, z) -> Expr:
+    """Three floats as one vector kept whole (unlike :func:`vec`, whose
+    components are split out wherever an operation allows): arithmetic on
+    it stays vector arithmetic, one native node per operation for three
+    values.  For evaluating three series of computed coefficients at once;
+    three constants are :func:`packed`."""
+    x, y, z = wrap(x), wrap(y), wrap(z)
+    if not (x.kind == y.kind == z.kind == "f"):
+        raise TypeError("pack takes three floats")
+    if all(a.op == "const" for a in (x, y, z)):
+        return packed(x.data, y.data, z.data)
+    return _make("pack", (x, y, z), "v")
+
+
 def input_(name: str, kind: str = "f") -> Expr:
     """A named input: a model parameter, a socket of the group, or a value
     the backend provides (``geometry(...)``)."""
@@ -549,6 +563,19 @@ def vscale(v, f) -> Expr:
             return packed(*folded)
     if v.op == "vec" or cf == 0.0:
         return vec(*(comp(v, i) * f for i in range(3)))
+    return _make("vscale", (v, f), "v")
+
+
+def scaled(v, f) -> Expr:
+    """The vector ``v`` times the float ``f`` as one vector operation, never
+    split into components (:func:`vscale` splits a vector of three
+    expressions): a closure's colour times its weight, one native node
+    rather than three products and a Combine XYZ."""
+    v, f = wrap(v), wrap(f)
+    if v.kind != "v" or f.kind != "f":
+        raise TypeError("scaled takes a vector and a float")
+    if _c(f) is not None or v.op == "vlit":  # constants fold
+        return vscale(v, f)
     return _make("vscale", (v, f), "v")
 
 

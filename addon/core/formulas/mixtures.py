@@ -12,7 +12,10 @@ width as the log of a multiple of an equivalent width (Beckmann's m or
 GGX's alpha of the same beta, the native alpha, the Ashikhmin-Shirley alpha
 of the same exponent) and each member's weight as Chebyshev coefficients in
 cos theta_o; between the nodes both are linear in x (``table``: an OSL
-array, a Float Curve node).  Where x is a constant, everything but the
+array, a Float Curve node).  The shaders sum each series as a polynomial
+in powers of the view variable (:func:`power_coefficients`: the same
+function, one Multiply Add node a degree by Horner's rule), three members'
+at a time in one vector.  Where x is a constant, everything but the
 series in cos theta_o folds to constants.
 """
 
@@ -21,7 +24,7 @@ from __future__ import annotations
 from ..fits import mixtures as _data
 from . import expr as E
 from .expr import clamp, closure_sum, div, exp, fmax, sqrt, table
-from .library import beckmann_m_from_beta, chebyshev, tr_alpha_from_beta
+from .library import beckmann_m_from_beta, tr_alpha_from_beta
 
 FITS = _data.FITS
 # variants with no fitted width: a single lobe of their kind stands in
@@ -84,7 +87,8 @@ def equivalent_alpha(equivalent: str, x):
 
 def view_variable(cos_o):
     c0 = _data.COS_VIEW_MIN
-    return clamp(2.0 * (cos_o - c0) * (1.0 / (1.0 - c0)) - 1.0, -1.0, 1.0)
+    # 2 (c - c0)/(1 - c0) - 1 as one product and sum (one Multiply Add node)
+    return clamp(cos_o * (2.0 / (1.0 - c0)) + (-(1.0 + c0) / (1.0 - c0)), -1.0, 1.0)
 
 
 def members(key: str, x, cos_o):
@@ -97,13 +101,56 @@ def members(key: str, x, cos_o):
     tu = view_variable(cos_o)
     eq = equivalent_alpha(d["equivalent"], xc)
     mult, weights = d["multipliers"], d["weights"]  # (n, K), (n, K, n_view)
+    # each node's series as a polynomial in the view variable: a_j = sum_m
+    # P[j][m] c_m, and the tables are linear in their values, so a table of
+    # the a_j is that sum of the c_m's tables
+    power = power_coefficients(len(weights[0][0]))
+
+    def coefficient(k, j):
+        return table([sum(p * c for p, c in zip(power[j], row[k])) for row in weights], t)
+
+    # Horner's rule, one product and sum (one Multiply Add node) a degree
+    # (Clenshaw's recurrence for the Chebyshev series takes two), three
+    # members at a time as one vector (a last one or two alone)
+    K = len(d["members"])
+    w = []
+    for k0 in range(0, K, 3):
+        group = range(k0, min(k0 + 3, K))
+        if len(group) < 3:
+            w += [fmax(horner([coefficient(k, j) for j in range(len(power))], tu), 0.0)
+                  for k in group]
+            continue
+        series = fmax(horner([E.pack(*(coefficient(k, j) for k in group))
+                              for j in range(len(power))], tu), 0.0)
+        w += [series[i] for i in range(3)]
     out = []
     for k, name in enumerate(d["members"]):
         z = table([row[k] for row in mult], t)
         alpha = clamp(eq * exp(z), ALPHA_MIN, ALPHA_MAX)
-        coefficients = [table([row[k][m] for row in weights], t)
-                        for m in range(len(weights[0][k]))]
-        out.append((name, fmax(chebyshev(coefficients, tu), 0.0), alpha))
+        out.append((name, w[k], alpha))
+    return out
+
+
+def power_coefficients(n: int) -> list:
+    """``P`` with sum_m c_m T_m(u) = sum_j (sum_m P[j][m] c_m) u^j, the
+    Chebyshev polynomials T_0 ... T_{n-1} in powers of u (T_{m+1} =
+    2 u T_m - T_{m-1}).  In float32 the powers' coefficients of the fits'
+    degree-7 series sum to about 100 times the series' own, an error near
+    1e-5 of a weight: far under the fits' 0.025."""
+    T = [[1.0], [0.0, 1.0]][:n]
+    while len(T) < n:
+        a, b = T[-1], T[-2]
+        T.append([(2.0 * a[j - 1] if j else 0.0) - (b[j] if j < len(b) else 0.0)
+                  for j in range(len(a) + 1)])
+    return [[T[m][j] if j < len(T[m]) else 0.0 for m in range(n)] for j in range(n)]
+
+
+def horner(coefficients, u):
+    """sum_j a_j u^j (coefficients: numbers or expressions, floats or
+    vectors)."""
+    out = E.wrap(coefficients[-1])
+    for a in coefficients[-2::-1]:
+        out = a + out * u
     return out
 
 

@@ -236,10 +236,11 @@ def _fitted_lobes(key, x, s, weight, member=None):
 
     def plain(name, w, alpha):
         if name == "diffuse":
-            return closure("diffuse", weight * w, s.n)
+            return closure("diffuse", E.scaled(weight, w), s.n)
         if name == "ashikhmin_shirley":
-            return closure("ashikhmin_shirley", weight * w, s.n, s.t, alpha, alpha)
-        return closure("microfacet", weight * w, s.n, s.t, alpha, alpha, distribution=name)
+            return closure("ashikhmin_shirley", E.scaled(weight, w), s.n, s.t, alpha, alpha)
+        return closure("microfacet", E.scaled(weight, w), s.n, s.t, alpha, alpha,
+                       distribution=name)
     return mixtures.mixture(key, x, _cos_o(s), member or plain)
 
 
@@ -447,9 +448,9 @@ class Microfacet(Formula):
                     "none": lambda: vec(1.0, 1.0, 1.0),
                     "dielectric": lambda: L.per_channel(L.F_dielectric, c, v.p("ior")),
                     "conductor": lambda: L.per_channel(L.F_conductor, c, v.p("ior"), v.p("k"))})
-                return closure("diffuse", ks * F * w, s.n)
+                return closure("diffuse", E.scaled(ks * F, w), s.n)
             ax, ay = (alpha, alpha) if aniso is None else (alpha * aniso[0], alpha * aniso[1])
-            return self._fresnel_lobe(v, s, name, ks * w, ax, ay)
+            return self._fresnel_lobe(v, s, name, E.scaled(ks, w), ax, ay)
         return mixtures.mixture(key, x, cos_o, member)
 
     def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
