@@ -204,12 +204,14 @@ def region(fit: M.Fit, level=REGION, get=None):
     return free
 
 
-def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION):
+def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None):
     """``fit`` with the weight series of the nodes ``free`` (default:
     :func:`region`) solved together (module docstring), measured; ``None``
     where the programme fails or there is nothing to solve.  ``rise``: how
     much a width's error up to 70 deg may rise (RISE); ``level``: the
-    error above which a width's nodes are free, with ``free`` not given."""
+    error above which a width's nodes are free, with ``free`` not given;
+    ``cap``: a bound on the worst case (every width's error up to 70 deg
+    at most this), which the albedo terms then pay for."""
     import highspy
     import scipy.sparse as sp
 
@@ -233,7 +235,7 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION):
     nb = len(B.blocks)
     lower = np.concatenate([np.full(B.n_coef, -inf), np.zeros(3 * W + 2 + nb)])
     upper = np.concatenate([np.full(B.n_coef, inf), cur70 + rise, cur85 + GRAZING_RISE,
-                            [inf, inf], np.full(W + nb, inf)])
+                            [inf if cap is None else cap, inf], np.full(W + nb, inf)])
     h.addVars(nv, lower, upper)
     c = np.zeros(nv)
     c[B.T] = 1.0
