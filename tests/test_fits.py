@@ -51,9 +51,9 @@ def test_gaussian_norm_series_matches_the_quadrature():
 def test_the_shaders_power_form_of_every_weight_series_is_the_series():
     """The shaders sum each fitted weight series in powers of the view
     variable (Horner's rule); in float32 it must be the committed Chebyshev
-    series within 2e-5 of the sum of the series' |coefficients| (float32:
-    the powers' coefficients sum to at most ~100 times the series'), at
-    every width node, member and view."""
+    series within 2e-5 of the sum of the series' |coefficients| (float32
+    rounding of the powers' coefficients, which sum to at most 75 times the
+    series'), at every width node, member and view."""
     from addon.core.fits import mixtures as data
     from addon.core.formulas.mixtures import power_coefficients
 
