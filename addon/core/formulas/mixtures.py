@@ -21,6 +21,8 @@ series in cos theta_o folds to constants.
 
 from __future__ import annotations
 
+import math
+
 from ..fits import mixtures as _data
 from . import expr as E
 from .expr import clamp, closure_sum, div, exp, fmax, sqrt, table
@@ -107,7 +109,9 @@ def members(key: str, x, cos_o):
     power = power_coefficients(len(weights[0][0]))
 
     def coefficient(k, j):
-        return table([sum(p * c for p, c in zip(power[j], row[k])) for row in weights], t)
+        # math.fsum: correctly rounded, so the shaders' constants are the same
+        # on every Python (sum() of floats compensates only from 3.12)
+        return table([math.fsum(p * c for p, c in zip(power[j], row[k])) for row in weights], t)
 
     # Horner's rule, one product and sum (one Multiply Add node) a degree
     # (Clenshaw's recurrence for the Chebyshev series takes two), three
