@@ -307,3 +307,16 @@ def test_an_anisotropic_closure_keeps_its_tangent():
     nodes, _refs = _plan("ward", {})
     glossy = [n for n in nodes if n.type == "ShaderNodeBsdfGlossy"]
     assert glossy and all("Tangent" in n.inputs and "Anisotropy" in n.inputs for n in glossy)
+
+
+@pytest.mark.parametrize("mode,tangent", [("beta", False), ("alpha", False), ("alpha_xy", True)])
+def test_exact_microfacet_computes_a_tangent_only_for_two_widths(mode, tangent):
+    """With one width, D and Lambda see only lengths across the normal and
+    along it: exact mode builds no frame (no bitangent n x t, whether the
+    tangent would come from the UV map or from the fallback axis); with two
+    (alpha_xy) it reads the UV tangent and builds the frame."""
+    nodes, _refs = _plan("microfacet", {"distribution": "trowbridge_reitz", "shadowing": "smith",
+                                        "fresnel": "none", "width_mode": mode}, "Color")
+    reads = any(src == ("geometry", "uv_tangent") for n in nodes for src in n.inputs.values())
+    crosses = any(n.props.get("operation") == "CROSS_PRODUCT" for n in nodes)
+    assert reads == tangent and crosses == tangent

@@ -302,14 +302,41 @@ class Microfacet(Formula):
         dist, sh, fr = v.enum("distribution"), v.enum("shadowing"), v.enum("fresnel")
         beta = v.p("beta")
         ax, ay = self.widths(v)
-        li, lo = local(wi, s.t, s.b, s.n), local(s.wo, s.t, s.b, s.n)
+
+        def framed():
+            """Components in the frame (t, b, n): anisotropic widths."""
+            li, lo = local(wi, s.t, s.b, s.n), local(s.wo, s.t, s.b, s.n)
+            hv = vec(li[0] + lo[0], li[1] + lo[1], li[2] + lo[2])
+            inv = div(1.0, E.length(hv))
+            h = (hv[0] * inv, hv[1] * inv, hv[2] * inv)
+            return li, lo, h, li[0] * h[0] + li[1] * h[1] + li[2] * h[2]
+
+        def isotropic():
+            """(length across n, 0, along n): with one width, D and Lambda
+            see only those, and no tangent is computed.  The length across
+            is that of w - n (n.w), accurate to float32 near the normal
+            (sqrt(1 - (n.w)^2) is not)."""
+            ci, co = E.dot(wi, s.n), E.dot(s.wo, s.n)
+            li = (E.length(wi - s.n * ci), const(0.0), ci)
+            lo = (E.length(s.wo - s.n * co), const(0.0), co)
+            hv, hz = wi + s.wo, ci + co
+            inv = div(1.0, E.length(hv))
+            h = (E.length(hv - s.n * hz) * inv, const(0.0), hz * inv)
+            return li, lo, h, E.dot(wi, hv) * inv
+
+        def part(i, j=None):
+            """One value of the two forms, by the width mode (every mode
+            but alpha_xy has one width)."""
+            return choose(v.enum("width_mode"), {
+                "alpha_xy": lambda: framed()[i] if j is None else framed()[i][j],
+                "*": lambda: isotropic()[i] if j is None else isotropic()[i][j]})
+
+        li = tuple(part(0, k) for k in range(3))
+        lo = tuple(part(1, k) for k in range(3))
+        h = tuple(part(2, k) for k in range(3))
+        cd = part(3)
         ci, co = li[2], lo[2]
-        hv = vec(li[0] + lo[0], li[1] + lo[1], li[2] + lo[2])
-        hl = E.length(hv)
-        inv = div(1.0, hl)
-        h = (hv[0] * inv, hv[1] * inv, hv[2] * inv)
         ch = h[2]
-        cd = li[0] * h[0] + li[1] * h[1] + li[2] * h[2]
 
         D = choose(dist, {
             "blinn": lambda: L.D_blinn(*h, beta),
