@@ -47,9 +47,9 @@ NODES_VERSION = 9  # 2: a closure-only shader feeds the BSDF output;
 # 7: fewer native nodes in exact mode (one Reflect node for Phong's mirror
 #    direction, a colour times one masked float): cheaper groups for files
 #    saved before
-# 8: fewer native nodes in the fitted mixtures (three members' weight series
-#    per vector operation, no tangent for an isotropic closure, a colour
-#    times a weight in one node, no unused nodes)
+# 8: fewer native nodes in the fitted mixtures (the weight series by
+#    Horner's rule, three members per vector operation, no tangent for an
+#    isotropic closure, a colour times a weight in one node, no unused nodes)
 # 9: the microfacet model's exact mode with one width computes no tangent
 #    (lengths across the normal; cheaper in OSL and in native nodes)
 """Bump when the layout of the groups changes; older groups are then listed by

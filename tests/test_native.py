@@ -286,8 +286,8 @@ def _plan(model, enums, output="BSDF"):
 def test_a_mixture_plans_no_tangent_and_three_weights_per_vector_node(model, enums):
     """The fitted mixtures' isotropic closures link no tangent (the frame's
     tangent is not computed for them), every planned node feeds an output,
-    and the weights' Chebyshev series runs three members per Vector Math
-    node (its recurrence: one Multiply Add and one Subtract a step)."""
+    and the weights' series runs three members per Vector Math node (by
+    Horner's rule: one Multiply Add a degree)."""
     nodes, refs = _plan(model, enums)
     closures = [n for n in nodes if n.type in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfMetallic")]
     assert closures and not any("Tangent" in n.inputs or "Anisotropy" in n.inputs
@@ -298,7 +298,7 @@ def test_a_mixture_plans_no_tangent_and_three_weights_per_vector_node(model, enu
     assert all(n.id in used for n in nodes)
     vector_steps = sum(1 for n in nodes if n.type == "ShaderNodeVectorMath"
                        and n.props.get("operation") == "MULTIPLY_ADD")
-    assert vector_steps >= 7  # 8 coefficients per series: 7 steps
+    assert vector_steps >= 7  # degree 7 (8 coefficients): 7 steps
 
 
 def test_an_anisotropic_closure_keeps_its_tangent():
