@@ -320,3 +320,59 @@ def test_exact_microfacet_computes_a_tangent_only_for_two_widths(mode, tangent):
     reads = any(src == ("geometry", "uv_tangent") for n in nodes for src in n.inputs.values())
     crosses = any(n.props.get("operation") == "CROSS_PRODUCT" for n in nodes)
     assert reads == tangent and crosses == tangent
+
+
+# --------------------------------------------------------------------------
+# Kajiya-Kay's fibre without a UV map
+
+KK_ROTATION = 0.7  # radians
+
+
+def _kk_plane(bpy, api, osl, tangent):
+    """A plane z = 0 with no UV map, Kajiya-Kay in exact mode under the sun
+    SUN, Tangent Rotation KK_ROTATION, the Tangent input ``tangent`` (None:
+    unset: the fibre falls back to the frame's tangent, the x axis here)."""
+    name = f"rm_kk_plane_{osl}_{tangent is None}"
+    scene = common.new_scene(name)
+    common.configure_cycles(scene, samples=1, max_bounces=0, filter_width=0.01, osl=osl)
+    scene.cycles.shading_system = osl
+    common.set_linear_exr_output(scene, (RES, RES))
+    common.set_world_background(scene, 0.0)
+    common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), 2.0, distance=10.0)
+    sun = common.add_sun(scene, SUN, 1.0)
+    mat, _tree, _out = common.empty_material(name)
+    node = api.add_model(mat, "kajiya_kay", mode="exact")
+    api.bind_light(node, sun)
+    node.inputs["Tangent Rotation"].default_value = KK_ROTATION
+    if tangent is not None:
+        node.inputs["Tangent"].default_value = tangent
+    plane = bpy.data.meshes.new(name)
+    plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
+                      [(0, 1, 2, 3)])
+    assert not plane.uv_layers
+    plane.materials.append(mat)
+    scene.collection.objects.link(bpy.data.objects.new(name, plane))
+    try:
+        img, _seconds = common.render_image(scene)
+    finally:
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+    return img
+
+
+@pytest.mark.parametrize("osl", [False, True], ids=["native", "osl"])
+def test_a_fibre_without_uv_map_is_turned_once(api, bpy, osl):
+    """With no Tangent input and no UV map the fibre is turned once by
+    Tangent Rotation: the render is that of the Tangent input (1, 0, 0)
+    turned, and the reference's with the fibre (cos r, sin r, 0).  (Cycles
+    gives the UV Tangent node the x axis here, so this goes through the UV
+    tangent; the frame's-tangent fallback, reached where the UV tangent is
+    zero, turned an already turned tangent before 'rotated=False'.)"""
+    fallback = _kk_plane(bpy, api, osl, None)
+    given = _kk_plane(bpy, api, osl, (1.0, 0.0, 0.0))
+    fibre = np.array([[math.cos(KK_ROTATION), math.sin(KK_ROTATION), 0.0]])
+    expected = R.shade("kajiya_kay", SUN[None], np.array([[0.0, 0.0, 1.0]]), tangent=fibre)[0]
+    assert np.all(fallback.max(axis=-1) > 0.0)
+    # float32 against the float64 reference (EXACT_MODE_TOLERANCE's 1e-4)
+    assert np.allclose(fallback, expected, rtol=1e-4, atol=0)
+    assert np.allclose(given, expected, rtol=1e-4, atol=0)

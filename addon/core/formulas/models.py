@@ -52,7 +52,10 @@ def shading(model_id: str, enums: dict | None = None, caps=None) -> Shading:
     model = catalogue.MODELS[model_id]
     uses = FORMULAS[model_id].uses_tangent(enums)
     n, t, b = frame(uses_tangent=uses)
-    tf = fibre_tangent(n, t) if model.kind == "fibre" else None
+    # the fibre falls back to the frame's tangent unrotated: fibre_tangent
+    # rotates it (the frame's t, rotated already, was turned twice)
+    tf = fibre_tangent(n, frame(uses_tangent=uses, rotated=False)[1]) \
+        if model.kind == "fibre" else None
     return Shading(n, t, b, E.geometry("I"), tf, caps)
 
 

@@ -31,10 +31,11 @@ def default_direction(v):
     return select(gt(dot(v, v), 0.0), normalize(v), vec(0.0, 0.0, 0.0))
 
 
-def frame(*, uses_tangent=True):
+def frame(*, uses_tangent=True, rotated=True):
     """(n, t, b): the shading normal (the Normal input when set, else the
     surface normal), the tangent projected on the surface and rotated about
-    n by Tangent Rotation, b = n x t.  Without a tangent any perpendicular."""
+    n by Tangent Rotation (``rotated``), b = n x t.  Without a tangent any
+    perpendicular."""
     n_in = unit_or_zero(_vinput("shading_normal"))
     n = select(is_zero(n_in), geometry("N"), n_in)
     axis = select(E.lt(E.fabs(n[0]), 0.9), vec(1.0, 0.0, 0.0), vec(0.0, 1.0, 0.0))
@@ -46,16 +47,19 @@ def frame(*, uses_tangent=True):
     tt = select(is_zero(tt), default_direction(geometry("uv_tangent")), tt)
     tt = tt - n * dot(tt, n)
     tt = select(E.lt(dot(tt, tt), 1e-12), fallback, normalize(tt))
+    if not rotated:
+        return n, tt, cross(n, tt)
     r = clamped(COMMON["tangent_rotation"])
-    rotated = tt * E.cos(r) + cross(n, tt) * E.sin(r)
-    t = select(gt(E.fabs(r), 0.0), rotated, tt)  # a branch on a constant folds away
+    turned = tt * E.cos(r) + cross(n, tt) * E.sin(r)
+    t = select(gt(E.fabs(r), 0.0), turned, tt)  # a branch on a constant folds away
     return n, t, cross(n, t)
 
 
 def fibre_tangent(n, t):
     """Kajiya-Kay's fibre direction: the Tangent input as given (not projected
-    on a surface), else the UV tangent, else the frame's t; rotated about n
-    (Rodrigues), keeping the fibre's tilt out of the surface."""
+    on a surface), else the UV tangent, else ``t`` (the frame's tangent
+    before its rotation: rotated here, once); rotated about n (Rodrigues),
+    keeping the fibre's tilt out of the surface."""
     tf = unit_or_zero(_vinput("tangent"))
     tf = select(is_zero(tf), default_direction(geometry("uv_tangent")), tf)
     tf = select(is_zero(tf), t, tf)
