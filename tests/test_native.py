@@ -147,23 +147,31 @@ HEIGHT = 3.0
 HALF = 0.4  # the occluder's half size
 
 
-def _shadow_scene(bpy, api, osl):
-    scene = common.new_scene(f"rm_shadow_{osl}")
+def _sunlit_plane(bpy, api, name, osl, model):
+    """A scene seen from above (orthographic, 2 units wide) under the sun
+    SUN, and the plane z = 0 over the view (no UV map) with ``model`` in
+    exact mode bound to the sun: (scene, material, its group node, the
+    plane's mesh)."""
+    scene = common.new_scene(name)
     common.configure_cycles(scene, samples=1, max_bounces=0, filter_width=0.01, osl=osl)
     scene.cycles.shading_system = osl
     common.set_linear_exr_output(scene, (RES, RES))
     common.set_world_background(scene, 0.0)
     common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), 2.0, distance=10.0)
     sun = common.add_sun(scene, SUN, 1.0)
-    # the plane z = 0 over the view, with the model in exact mode
-    mat, _tree, _out = common.empty_material(f"rm_shadow_{osl}")
-    node = api.add_model(mat, "lambert", mode="exact")
+    mat, _tree, _out = common.empty_material(name)
+    node = api.add_model(mat, model, mode="exact")
     api.bind_light(node, sun)
-    plane = bpy.data.meshes.new(f"rm_shadow_plane_{osl}")
+    plane = bpy.data.meshes.new(name)
     plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
                       [(0, 1, 2, 3)])
     plane.materials.append(mat)
-    scene.collection.objects.link(bpy.data.objects.new(f"rm_shadow_plane_{osl}", plane))
+    scene.collection.objects.link(bpy.data.objects.new(name, plane))
+    return scene, mat, node, plane
+
+
+def _shadow_scene(bpy, api, osl):
+    scene, mat, _node, _plane = _sunlit_plane(bpy, api, f"rm_shadow_{osl}", osl, "lambert")
     # an occluder at HEIGHT toward the sun: its shadow is the square of side
     # 2 HALF around the origin; it is itself outside the camera's view
     c = SUN / SUN[2] * HEIGHT
@@ -332,26 +340,12 @@ def _kk_plane(bpy, api, osl, tangent):
     """A plane z = 0 with no UV map, Kajiya-Kay in exact mode under the sun
     SUN, Tangent Rotation KK_ROTATION, the Tangent input ``tangent`` (None:
     unset: the fibre falls back to the frame's tangent, the x axis here)."""
-    name = f"rm_kk_plane_{osl}_{tangent is None}"
-    scene = common.new_scene(name)
-    common.configure_cycles(scene, samples=1, max_bounces=0, filter_width=0.01, osl=osl)
-    scene.cycles.shading_system = osl
-    common.set_linear_exr_output(scene, (RES, RES))
-    common.set_world_background(scene, 0.0)
-    common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), 2.0, distance=10.0)
-    sun = common.add_sun(scene, SUN, 1.0)
-    mat, _tree, _out = common.empty_material(name)
-    node = api.add_model(mat, "kajiya_kay", mode="exact")
-    api.bind_light(node, sun)
+    scene, mat, node, plane = _sunlit_plane(bpy, api, f"rm_kk_plane_{osl}_{tangent is None}",
+                                            osl, "kajiya_kay")
     node.inputs["Tangent Rotation"].default_value = KK_ROTATION
     if tangent is not None:
         node.inputs["Tangent"].default_value = tangent
-    plane = bpy.data.meshes.new(name)
-    plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
-                      [(0, 1, 2, 3)])
     assert not plane.uv_layers
-    plane.materials.append(mat)
-    scene.collection.objects.link(bpy.data.objects.new(name, plane))
     try:
         img, _seconds = common.render_image(scene)
     finally:
