@@ -327,17 +327,20 @@ class Microfacet(Formula):
             h = (E.length(hv - s.n * hz) * inv, const(0.0), hz * inv)
             return li, lo, h, E.dot(wi, hv) * inv
 
-        def part(i, j=None):
-            """One value of the two forms, by the width mode (every mode
-            but alpha_xy has one width)."""
-            return choose(v.enum("width_mode"), {
-                "alpha_xy": lambda: framed()[i] if j is None else framed()[i][j],
-                "*": lambda: isotropic()[i] if j is None else isotropic()[i][j]})
+        forms = {}
 
-        li = tuple(part(0, k) for k in range(3))
-        lo = tuple(part(1, k) for k in range(3))
-        h = tuple(part(2, k) for k in range(3))
-        cd = part(3)
+        def flat(form):
+            """A form's ten values (li, lo, h, cos theta_d), built once."""
+            if form not in forms:
+                li, lo, h, cd = form()
+                forms[form] = (*li, *lo, *h, cd)
+            return forms[form]
+
+        # each value by the width mode (every mode but alpha_xy has one width)
+        values = [choose(v.enum("width_mode"), {"alpha_xy": lambda k=k: flat(framed)[k],
+                                               "*": lambda k=k: flat(isotropic)[k]})
+                  for k in range(10)]
+        li, lo, h, cd = tuple(values[0:3]), tuple(values[3:6]), tuple(values[6:9]), values[9]
         ci, co = li[2], lo[2]
         ch = h[2]
 
