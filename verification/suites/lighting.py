@@ -11,7 +11,8 @@ traced comparison, whose subject is that equality), and returns a
   (``verification.scenes.lit``): the sum over the lamps.  Tolerance 1e-4
   relative (float32) plus, per pixel, the change of the expected value
   across the 0.01-pixel filter that Cycles jitters the camera ray in (a
-  point lamp's 1/d^2, a spot's cone edge; zero for suns).
+  point lamp's 1/d^2, a spot's cone edge; zero for suns); in EEVEE
+  (``eevee=True``) 3e-3 of the peak, its half-float output, plus the same.
 - :func:`hybrid_bound_lamp`: a model in hybrid mode under its bound sun
   alone renders the model exactly (the closure, excluded from the sun by
   light linking, adds nothing).
