@@ -153,16 +153,15 @@ def _compile_seconds(mat, out_dir, resolution):
 
 
 def _material(api, spec):
-    """The material of one measurement: ``("principled", input)`` or
-    ``(label, mode)`` of a row."""
+    """The material of one measurement: ``{"principled": input}`` or
+    ``{"model": name, "mode": mode, "params": {...}}`` (JSON: it is passed
+    to a fresh process)."""
     from verification.suites import verify
 
-    kind, what = spec
-    if kind == "principled":
-        return _principled(f"eevee principled {what}", what)
-    row = {label: (model, params) for label, model, params in ROWS}[kind]
-    mat = verify.new_material(f"eevee {kind} {what}")
-    api.add_model(mat, row[0], mode=what, **row[1])
+    if "principled" in spec:
+        return _principled(f"eevee principled {spec['principled']}", spec["principled"])
+    mat = verify.new_material(f"eevee {spec['model']} {spec['mode']}")
+    api.add_model(mat, spec["model"], mode=spec["mode"], **spec["params"])
     return mat
 
 
@@ -193,15 +192,16 @@ def _run_fresh(spec) -> tuple:
 
 
 def bench(*, rows=ROWS):
-    base = [_run_fresh(("principled", name)) for name in BASELINE_LINKS]
+    base = [_run_fresh({"principled": name}) for name in BASELINE_LINKS]
     base_s = statistics.median(b[0] for b in base)
     base_isolated = sum(b[1] for b in base) >= 2
     print(f"  Principled baseline: {', '.join(f'{b[0]:.2f} s' for b in base)}", flush=True)
     results = []
-    for label, _model, _params in rows:
+    for label, model, params in rows:
         row = {"label": label}
         for mode in ("path_traced", "exact"):
-            seconds, isolated, spread = _run_fresh((label, mode))
+            seconds, isolated, spread = _run_fresh({"model": model, "mode": mode,
+                                                    "params": params})
             row[mode + "_s"] = seconds
             # a ratio only where both the material's and the baseline's compile showed;
             # else a bound: a compile hidden in the frames' noise is under it plus their spread
@@ -258,7 +258,7 @@ def main(argv=None):
     if argv[:1] == ["--one"]:
         bpy_env.prepare()
         from addon import api
-        print(RESULT + json.dumps(measure_one(api, tuple(json.loads(argv[1])))), flush=True)
+        print(RESULT + json.dumps(measure_one(api, json.loads(argv[1]))), flush=True)
         return 0
     base, results = bench()
     print_tables(base, results, node_counts())

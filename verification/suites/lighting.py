@@ -41,24 +41,17 @@ def _material(name):
     return mat
 
 
-def compare(img, expected, mask, spread=None):
-    """``(largest relative error, largest error beyond the allowance /
-    allowance)``: 1e-4 of max(|expected|, 1e-3 peak) plus ``spread``."""
-    tol = tolerance("exact_mode")
-    floor = 1e-3 * float(expected[mask].max())
-    scale = np.maximum(np.abs(expected[mask]), floor)
+def compare(img, expected, mask, spread=None, *, eevee=False):
+    """``(largest error, largest error beyond the allowance / allowance)``:
+    the error relative to max(|expected|, 1e-3 peak), allowed 1e-4 of that
+    plus ``spread``; ``eevee``: the error over the peak, allowed 3e-3 of the
+    peak (its half-float output) plus ``spread``."""
+    peak = float(expected[mask].max())
+    tol = tolerance("eevee_exact" if eevee else "exact_mode")
+    scale = peak if eevee else np.maximum(np.abs(expected[mask]), 1e-3 * peak)
     err = np.abs(img[mask].astype(np.float64) - expected[mask])
     allowed = tol * scale + (0.0 if spread is None else spread[mask])
     return float((err / scale).max()), float((err / allowed).max())
-
-
-def compare_eevee(img, expected, mask, spread=None):
-    """``(largest |difference| over the peak, largest error beyond the
-    allowance / allowance)``: 3e-3 of the peak plus ``spread``."""
-    peak = float(expected[mask].max())
-    err = np.abs(img[mask].astype(np.float64) - expected[mask])
-    allowed = tolerance("eevee_exact") * peak + (0.0 if spread is None else spread[mask])
-    return float(err.max() / peak), float((err / allowed).max())
 
 
 def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resolution=48,
@@ -87,10 +80,7 @@ def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resol
         bpy.data.materials.remove(mat)
     expected = s.reference(model, **params)
     spread = s.footprint_spread(model, **params)
-    if eevee:
-        worst, ratio = compare_eevee(img, expected, s.mask, spread)
-    else:
-        worst, ratio = compare(img, expected, s.mask, spread)
+    worst, ratio = compare(img, expected, s.mask, spread, eevee=eevee)
     cones = [lit.spot_cone(w[s.mask] @ lit.normalize(l.direction), l.size, l.blend)
              for w, l in zip(s.wi, s.lamps) if l.kind == "SPOT"]
     values = {"model": model, "lamps": lamps, "backend": backend,
