@@ -339,7 +339,8 @@ KK_ROTATION = 0.7  # radians
 def _kk_plane(bpy, api, osl, tangent):
     """A plane z = 0 with no UV map, Kajiya-Kay in exact mode under the sun
     SUN, Tangent Rotation KK_ROTATION, the Tangent input ``tangent`` (None:
-    unset: the fibre falls back to the frame's tangent, the x axis here)."""
+    unset: the fibre is the UV tangent, which Cycles gives as the x axis on
+    a mesh with no UV map)."""
     scene, mat, node, plane = _sunlit_plane(bpy, api, f"rm_kk_plane_{osl}_{tangent is None}",
                                             osl, "kajiya_kay")
     node.inputs["Tangent Rotation"].default_value = KK_ROTATION
