@@ -48,7 +48,12 @@ around its worst widths solved together (:mod:`.joint`), which
 ships under the re-solve's rules (no width worse by more than WIDTH_SLACK
 up to 70 deg or GRAZING_SLACK up to 85, the albedo within the target or no
 further off by more than ALBEDO_SLACK) where it lowers the worst case by
-WIDTH_SLACK or brings the albedo within the target.
+WIDTH_SLACK or brings the albedo within the target.  A Smith variant
+still over its bound after that (but under HOPELESS: no factor of the light
+direction dominating) has its width nodes halved and the members' widths
+of the nodes around its worst widths fitted again, their series then
+re-solved together (:mod:`.halve`); that ships under the same rules,
+measured against the halved fit (:func:`finish_halved`).
 
 Reproducible like the fitter (no randomness beyond :func:`.mixtures.measure`'s
 seeded widths).
@@ -61,7 +66,7 @@ import math
 import numpy as np
 
 from . import mixtures as M
-from . import joint
+from . import halve, joint
 from .clamp import settle, window_errors
 from .polish import SampleCache, polish
 
@@ -221,6 +226,47 @@ def _rise(new: M.Fit, old: M.Fit) -> float:
 
 
 def finish(fit: M.Fit, how: str, log=print) -> tuple:
+    """``(fit, how)`` through the choice's last steps: the joint re-solve
+    (:func:`finish_joint`), then, for a Smith variant still over the bound, the
+    nodes halved (:func:`finish_halved`)."""
+    if JOINT not in how:
+        fit, how = finish_joint(fit, how, log)
+    return finish_halved(fit, how, log)
+
+
+HALVED = "its width nodes halved around its worst widths, their members' widths fitted again"
+
+
+def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
+    """``(fit, how)``, or, for a Smith variant (:func:`re_solved`) whose
+    worst case is over the bound but under HOPELESS (no factor of the
+    light direction that no closure has dominating it), the fit with its
+    width nodes halved and the members' widths of the nodes around its
+    worst widths fitted again (:mod:`.halve`), where that measures no worse
+    than the halved fit (the same function, measured at the same widths:
+    :func:`_no_worse`, no width worse by more than WIDTH_SLACK up to 70 deg
+    or GRAZING_SLACK up to 85) and lowers the worst case by WIDTH_SLACK."""
+    m = fit.measured
+    aim = bound(fit.target)
+    if HALVED in how or not re_solved(fit.target) \
+            or not aim < m["max_abs_over_peak_70"] < M.HOPELESS:
+        return fit, how
+    halved, solved = halve.solve(fit, joint.REGION_FRACTION * aim, log=log)
+    if solved is None:
+        return fit, how
+    worse = _worse_widths(solved, halved)
+    n = solved.measured
+    said = (f"{HALVED}: {m['max_abs_over_peak_70']:.4f} -> {n['max_abs_over_peak_70']:.4f}, "
+            f"albedo {m['albedo_difference_70']:.4f} -> {n['albedo_difference_70']:.4f}")
+    if _no_worse(solved, halved) and not worse and _gain(solved, halved) >= WIDTH_SLACK:
+        log(f"  {fit.target.key}: {said}")
+        return solved, f"{how}, {HALVED}"
+    log(f"  {fit.target.key}: {said}, worse at {len(worse)} widths "
+        f"({', '.join(worse[:3])}): not used")
+    return fit, how
+
+
+def finish_joint(fit: M.Fit, how: str, log=print) -> tuple:
     """``(fit, how)``, or the fit with the weight series of the nodes around
     its worst widths solved together (:mod:`.joint`) where that measures no
     worse (:func:`_no_worse`, and no width worse than WIDTH_SLACK up to 70
@@ -237,8 +283,6 @@ def finish(fit: M.Fit, how: str, log=print) -> tuple:
     both better, ships though some widths rose (never above the new worst
     case, which is lower than the old); of two such, the one whose widths
     rose least in sum.  Each risen width is logged."""
-    if JOINT in how:
-        return fit, how
     m = fit.measured
     aim = bound(fit.target)
     slack = WIDTH_SLACK * aim / TARGET  # in proportion to the bound (0.016 for Blinn-Phong)

@@ -9,8 +9,9 @@
   (:mod:`fitting.assemble`);
 - ``--collect``: the module from the fits made so far (``--collect --only
   KEY ...``: choose those variants again, keep the others as committed);
-- ``--finish``: the choice's last step (the joint re-solve,
-  :func:`fitting.assemble.finish`) applied to the committed module.
+- ``--finish``: the choice's last steps (the joint re-solve, the width
+  nodes halved: :func:`fitting.assemble.finish`) applied to the committed
+  module.
 """
 
 from __future__ import annotations
@@ -84,19 +85,17 @@ def _finish(key):
     from fitting import assemble, mixtures
     fit = mixtures.load_fits([key])[key]
     fit.measured = mixtures.measure(fit)
-    lines = []
-    out = assemble.finish(fit, data.SHIPPED[key], log=lines.append)
-    print("\n".join(lines + [f"{key}: ships {out[1]}: "
-                              f"{out[0].measured['max_abs_over_peak_70']:.4f}"]), flush=True)
+    out = assemble.finish(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True))
+    print(f"{key}: ships {out[1]}: {out[0].measured['max_abs_over_peak_70']:.4f}", flush=True)
     return out
 
 
 def finish(jobs=2, only=None):
-    """The committed module with the last step of the choice
-    (:func:`fitting.assemble.finish`, the joint re-solve of the Smith
-    variants) applied to the variants ``only`` (default: every Smith
-    variant not yet through it), the others kept: what ``collect`` makes
-    from fits collected before that step existed."""
+    """The committed module with the last steps of the choice
+    (:func:`fitting.assemble.finish`: the joint re-solve of the Smith
+    variants, their width nodes halved) applied to the variants ``only``
+    (default: every Smith variant and Blinn-Phong), the others kept: what
+    ``collect`` makes from fits collected before those steps existed."""
     from addon.core.fits import mixtures as data
     from fitting import assemble, mixtures
     targets = {t.key: t for t in mixtures.targets()}
@@ -174,8 +173,8 @@ def main(argv=None) -> int:
                         "choose only these again")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--finish", action="store_true",
-                        help="apply the choice's last step (the joint re-solve) to the committed "
-                             "mixtures (--only: to these variants)")
+                        help="apply the choice's last steps (the joint re-solve, the width nodes "
+                             "halved) to the committed mixtures (--only: to these variants)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
