@@ -82,7 +82,8 @@ def collect(jobs=2, only=None):
 def _finish(key):
     """One committed variant with :func:`fitting.assemble.finish` applied."""
     from addon.core.fits import mixtures as data
-    from fitting import assemble, mixtures
+    from fitting import assemble, halve, mixtures
+    halve.CACHE_DIR = CACHE  # the halving step's results kept: a run resumes
     fit = mixtures.load_fits([key])[key]
     fit.measured = mixtures.measure(fit)
     out = assemble.finish(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True))
