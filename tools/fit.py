@@ -9,9 +9,10 @@
   (:mod:`fitting.assemble`);
 - ``--collect``: the module from the fits made so far (``--collect --only
   KEY ...``: choose those variants again, keep the others as committed);
-- ``--finish``: the choice's last steps (the joint re-solve, the width
-  nodes halved: :func:`fitting.assemble.finish`) applied to the committed
-  module.
+- ``--finish``: the choice's last step (the joint re-solve,
+  :func:`fitting.assemble.finish`) applied to the committed module; with
+  ``--halve``, then the width nodes halved (:mod:`fitting.halve`, not a
+  step of ``make fit`` yet).
 """
 
 from __future__ import annotations
@@ -79,30 +80,38 @@ def collect(jobs=2, only=None):
     _redo(_choose, list(only) if only else keys, keys, jobs)
 
 
-def _finish(key):
-    """One committed variant with :func:`fitting.assemble.finish` applied."""
+def _finish(key, halving=False):
+    """One committed variant with :func:`fitting.assemble.finish` applied
+    (``halving``: and its width nodes halved, :mod:`fitting.halve`)."""
     from addon.core.fits import mixtures as data
     from fitting import assemble, halve, mixtures
     halve.CACHE_DIR = CACHE  # the halving step's results kept: a run resumes
     fit = mixtures.load_fits([key])[key]
     fit.measured = mixtures.measure(fit)
-    out = assemble.finish(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True))
+    out = assemble.finish(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True),
+                          halving=halving)
     print(f"{key}: ships {out[1]}: {out[0].measured['max_abs_over_peak_70']:.4f}", flush=True)
     return out
 
 
-def finish(jobs=2, only=None):
-    """The committed module with the last steps of the choice
+def _finish_halving(key):
+    return _finish(key, halving=True)
+
+
+def finish(jobs=2, only=None, halving=False):
+    """The committed module with the last step of the choice
     (:func:`fitting.assemble.finish`: the joint re-solve of the Smith
-    variants, their width nodes halved) applied to the variants ``only``
+    variants) applied to the variants ``only``
     (default: every Smith variant and Blinn-Phong), the others kept: what
-    ``collect`` makes from fits collected before those steps existed."""
+    ``collect`` makes from fits collected before those steps existed.
+    ``halving``: the width nodes halved too (not a step of ``make fit``
+    yet: see fitting/halve.py)."""
     from addon.core.fits import mixtures as data
     from fitting import assemble, mixtures
     targets = {t.key: t for t in mixtures.targets()}
     todo = only or [k for k in targets if assemble.joint_step(targets[k])
                     and not data.SHIPPED[k].startswith("single lobe")]
-    _redo(_finish, todo, list(targets), jobs, committed=True)
+    _redo(_finish_halving if halving else _finish, todo, list(targets), jobs, committed=True)
 
 
 def _check_committed(todo, keys):
@@ -174,8 +183,11 @@ def main(argv=None) -> int:
                         "choose only these again")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--finish", action="store_true",
-                        help="apply the choice's last steps (the joint re-solve, the width nodes "
-                             "halved) to the committed mixtures (--only: to these variants)")
+                        help="apply the choice's last step (the joint re-solve) to the committed "
+                             "mixtures (--only: to these variants)")
+    parser.add_argument("--halve", action="store_true",
+                        help="with --finish: also halve the width nodes of the Smith variants "
+                             "still over the bound (fitting/halve.py; not a step of make fit)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
@@ -184,7 +196,7 @@ def main(argv=None) -> int:
         collect(args.jobs, args.only)
         return 0
     if args.finish:
-        finish(args.jobs, args.only)
+        finish(args.jobs, args.only, halving=args.halve)
         return 0
     if args.only:  # the others are kept as committed: check that before any writing or fitting
         from fitting import mixtures
