@@ -101,8 +101,8 @@ def _finish_halving(key):
 def finish(jobs=2, only=None, halving=False):
     """The committed module with the last step of the choice
     (:func:`fitting.assemble.finish`: the joint re-solve of the Smith
-    variants) applied to the variants ``only``
-    (default: every Smith variant and Blinn-Phong), the others kept: what
+    variants) applied to the variants ``only`` (default: every Smith
+    variant and Blinn-Phong that ships no single lobe), the others kept: what
     ``collect`` makes from fits collected before those steps existed.
     ``halving``: the width nodes halved too (not a step of ``make fit``
     yet: see fitting/halve.py)."""
