@@ -424,11 +424,13 @@ def test_the_joint_re_solve_keeps_each_views_error_where_it_was():
     assert after.max() <= before.max() + joint.RISE + 1e-6
 
 
-def _trade_fit(worst, albedo, per_width, key="test"):
-    """A stand-in Fit for :func:`fitting.assemble.finish_joint`: only what it reads."""
+def _trade_fit(worst, albedo, per_width, key="test", target=None):
+    """A stand-in Fit for :func:`fitting.assemble.finish_joint` and
+    ``finish_halved``: only what they read (``target``: a real one, where
+    the step looks at the variant's kind)."""
     from types import SimpleNamespace
     return SimpleNamespace(
-        target=SimpleNamespace(key=key), programme_worst=worst,
+        target=target or SimpleNamespace(key=key), programme_worst=worst,
         measured={"max_abs_over_peak_70": worst, "max_abs_over_peak_85": 0.2,
                   "albedo_difference_70": albedo,
                   "per_width": [(f"{i}", e, 0.2, 0.0) for i, e in enumerate(per_width)]})
@@ -623,15 +625,11 @@ def test_the_refit_solves_the_weights_beyond_70_deg_against_the_lights_there():
     assert len(gains) == 2 and max(gains) > 0.01, gains
 
 
-def _halved_fit(worst, per_width, key="microfacet/blinn/smith/beta", albedo=0.009):
-    """A stand-in Fit for :func:`fitting.assemble.finish_halved`."""
-    from types import SimpleNamespace
-    target = {t.key: t for t in M.targets()}[key]
-    return SimpleNamespace(
-        target=target,
-        measured={"max_abs_over_peak_70": worst, "max_abs_over_peak_85": 0.2,
-                  "albedo_difference_70": albedo,
-                  "per_width": [(f"{i}", e, 0.2, 0.0) for i, e in enumerate(per_width)]})
+def _halved_fit(worst, per_width, key):
+    """A stand-in Fit for :func:`fitting.assemble.finish_halved` (albedo
+    within its target)."""
+    return _trade_fit(worst, 0.009, per_width,
+                      target={t.key: t for t in M.targets()}[key])
 
 
 @pytest.mark.parametrize("key, old, new, ships", [

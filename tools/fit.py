@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 from pathlib import Path
@@ -94,10 +95,6 @@ def _finish(key, halving=False):
     return out
 
 
-def _finish_halving(key):
-    return _finish(key, halving=True)
-
-
 def finish(jobs=2, only=None, halving=False):
     """The committed module with the last step of the choice
     (:func:`fitting.assemble.finish`: the joint re-solve of the Smith
@@ -111,7 +108,8 @@ def finish(jobs=2, only=None, halving=False):
     targets = {t.key: t for t in mixtures.targets()}
     todo = only or [k for k in targets if assemble.joint_step(targets[k])
                     and not data.SHIPPED[k].startswith("single lobe")]
-    _redo(_finish_halving if halving else _finish, todo, list(targets), jobs, committed=True)
+    _redo(functools.partial(_finish, halving=halving), todo, list(targets), jobs,
+          committed=True)
 
 
 def _check_committed(todo, keys):
