@@ -121,9 +121,15 @@ bench: $(STAMP)
 # variants were added (those, run alone, took about half an hour more; the
 # last part chooses what ships for each variant).  Writes
 # addon/core/fits/mixtures.py; `make fit ONLY="key ..."` refits some.
+# Then the step that halves the width nodes (fitting/halve.py), for the
+# variants in HALVE only: it takes about an hour a variant, and was run for
+# these two (Trowbridge-Reitz with separable Smith in beta, the one other
+# variant it would try, has not been run through it).
 JOBS ?= 2
+HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
 fit: $(STAMP)
 	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
+	$(if $(HALVE),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE),)
 
 clean:
 	rm -rf build dist .pytest_cache

@@ -225,18 +225,21 @@ def _kept(fit: M.Fit, level: float, stage: str, make, log=print):
     return out
 
 
-def solve(fit: M.Fit, level: float, log=print):
+def solve(fit: M.Fit, level: float, log=print, albedo_weight=joint.ALBEDO_WEIGHT):
     """:func:`solve_uncached`, kept in CACHE_DIR where that is set (the
     refit stage on its own too)."""
-    return _kept(fit, level, "solved", lambda: solve_uncached(fit, level, log), log)
+    stage = ("solved" if albedo_weight == joint.ALBEDO_WEIGHT
+             else f"solved-albedo{albedo_weight:g}")
+    return _kept(fit, level, stage, lambda: solve_uncached(fit, level, log, albedo_weight), log)
 
 
-def solve_uncached(fit: M.Fit, level: float, log=print):
+def solve_uncached(fit: M.Fit, level: float, log=print, albedo_weight=joint.ALBEDO_WEIGHT):
     """``(halved, refitted)``: the fit halved (:func:`halve`, measured) and
     that with the nodes around its widths erring more than ``level``
     fitted again (:func:`refit`) and their weight series re-solved together
     (:func:`.joint.solve`, no width's error up to 70 deg rising by more
-    than its RISE); ``refitted`` is ``None`` where there is nothing to fit."""
+    than its RISE, the albedo's excess costing ``albedo_weight``);
+    ``refitted`` is ``None`` where there is nothing to fit."""
     halved = halve(fit)
     halved.measured = M.measure(halved)
     free = joint.region(halved, level=level)
@@ -244,5 +247,6 @@ def solve_uncached(fit: M.Fit, level: float, log=print):
         return halved, None
     log(f"  {fit.target.key}: nodes halved, widths fitted again at {sorted(free)}")
     refitted = _kept(fit, level, "refit", lambda: refit(halved, free, log=log), log)
-    solved = joint.solve(refitted, log=log, rise=joint.RISE, level=level)
+    solved = joint.solve(refitted, log=log, rise=joint.RISE, level=level,
+                         albedo_weight=albedo_weight)
     return halved, (solved if solved is not None else refitted)

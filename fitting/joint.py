@@ -204,14 +204,16 @@ def region(fit: M.Fit, level=REGION, get=None):
     return free
 
 
-def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None):
+def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
+          albedo_weight=ALBEDO_WEIGHT):
     """``fit`` with the weight series of the nodes ``free`` (default:
     :func:`region`) solved together (module docstring), measured; ``None``
     where the programme fails or there is nothing to solve.  ``rise``: how
     much a width's error up to 70 deg may rise (RISE); ``level``: the
     error above which a width's nodes are free, with ``free`` not given;
     ``cap``: a bound on the worst case (every width's error up to 70 deg
-    at most this), which the albedo terms then pay for."""
+    at most this), which the albedo terms then pay for; ``albedo_weight``:
+    what a unit of the albedo's excess costs (ALBEDO_WEIGHT)."""
     import highspy
     import scipy.sparse as sp
 
@@ -241,8 +243,8 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None):
     c[B.T] = 1.0
     c[B.E70:B.E70 + W] = SPREAD / W
     c[B.E85:B.E85 + W] = 0.1 * SPREAD / W
-    c[B.ALB] = ALBEDO_WEIGHT
-    c[B.ALBW:B.ALBW + W] = ALBEDO_WEIGHT / W
+    c[B.ALB] = albedo_weight
+    c[B.ALBW:B.ALBW + W] = albedo_weight / W
     up_to_70 = np.array([e < B.E85 for *_r, e in B.blocks])
     for b, near in enumerate(up_to_70):
         c[B.BLOCK + b] = VIEW_SPREAD * (1.0 if near else 0.1) / max(1, int(np.sum(up_to_70 == near)))

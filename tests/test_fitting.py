@@ -431,6 +431,7 @@ def _trade_fit(worst, albedo, per_width, key="test", target=None):
     from types import SimpleNamespace
     return SimpleNamespace(
         target=target or SimpleNamespace(key=key), programme_worst=worst,
+        width_values=tuple(range(len(per_width))),
         measured={"max_abs_over_peak_70": worst, "max_abs_over_peak_85": 0.2,
                   "albedo_difference_70": albedo,
                   "per_width": [(f"{i}", e, 0.2, 0.0) for i, e in enumerate(per_width)]})
@@ -656,11 +657,80 @@ def test_the_halved_nodes_ship_only_where_no_width_is_worse(monkeypatch, key, ol
     made = None if new is None else _halved_fit(*new, key=key)
     calls = []
 
-    def solve(f, level, log=None):
+    def solve(f, level, log=None, albedo_weight=None):
         calls.append(level)
         return fit, made
 
     monkeypatch.setattr(halve, "solve", solve)
+    monkeypatch.setattr(assemble, "splice", lambda f, _h, **_k: (f, []))  # nothing put back
     out, how = assemble.finish_halved(fit, "fitted", log=lambda _m: None)
     assert bool(calls) == (new is not None)
     assert (out is made) == ships and (assemble.HALVED in how) == ships
+
+
+@pytest.mark.parametrize("first, second, tries, ships", [
+    # the albedo alone beyond 0.01: solved again with the albedo dearer, which ships
+    ((0.028, 0.0135, [0.020, 0.028]), (0.030, 0.0095, [0.020, 0.030]), 2, True),
+    # ... and the second no better in the albedo: neither ships
+    ((0.028, 0.0135, [0.020, 0.028]), (0.029, 0.0130, [0.020, 0.029]), 2, False),
+    # a width worse than WIDTH_SLACK (albedo off too): no second try
+    ((0.028, 0.0135, [0.025, 0.028]), (0.030, 0.0095, [0.020, 0.030]), 1, False),
+    # the worst case no lower by WIDTH_SLACK: no second try
+    ((0.0315, 0.0135, [0.020, 0.0315]), (0.030, 0.0095, [0.020, 0.030]), 1, False),
+])
+def test_the_halved_fit_is_solved_again_with_the_albedo_dearer_where_only_it_fails(
+        monkeypatch, first, second, tries, ships):
+    """fitting/assemble.finish_halved: where the result fails only on the
+    directional albedo (beyond 0.01, from within it), its series are solved
+    again with the albedo's excess costing HALVED_ALBEDO_WEIGHT, and that
+    result ships under the same rule; any other failure ends the step."""
+    from fitting import assemble, halve, joint
+    key = "microfacet/gaussian/smith/beta"
+    fit = _halved_fit(0.033, [0.020, 0.033], key=key)
+    results = {joint.ALBEDO_WEIGHT: _trade_fit(*first, target=fit.target),
+               assemble.HALVED_ALBEDO_WEIGHT: _trade_fit(*second, target=fit.target)}
+    weights = []
+
+    def solve(f, level, log=None, albedo_weight=None):
+        weights.append(albedo_weight)
+        return fit, results[albedo_weight]
+
+    monkeypatch.setattr(halve, "solve", solve)
+    monkeypatch.setattr(assemble, "splice", lambda f, _h, **_k: (f, []))  # nothing put back
+    out, how = assemble.finish_halved(fit, "fitted", log=lambda _m: None)
+    assert weights == [joint.ALBEDO_WEIGHT, assemble.HALVED_ALBEDO_WEIGHT][:tries]
+    assert assemble.HALVED_ALBEDO_WEIGHT > joint.ALBEDO_WEIGHT
+    assert (out is results[assemble.HALVED_ALBEDO_WEIGHT]) == ships
+    assert (assemble.HALVED in how) == ships
+
+
+@pytest.mark.parametrize("spliced, ships", [
+    # the halved nodes put back where the refit was worse: no width worse, ships
+    ((0.026, 0.0094, [0.0229, 0.026]), True),
+    # still a width worse than WIDTH_SLACK after the splice: not used
+    ((0.026, 0.0094, [0.0260, 0.026]), False),
+])
+def test_the_halved_fits_own_nodes_are_put_back_where_the_refit_is_worse(
+        monkeypatch, spliced, ships):
+    """fitting/assemble.finish_halved: where the re-solved fit measures some
+    widths worse than the halved fit (Blinn with separable Smith: 0.0229 ->
+    0.0250 at beta 50.7 deg), the halved fit's nodes are spliced back
+    (:func:`fitting.assemble.splice`) and the result measured by the same
+    rule; the splice is tried only where some width is worse."""
+    from fitting import assemble, halve
+    key = "microfacet/blinn/smith/beta"
+    fit = _halved_fit(0.033, [0.0229, 0.033], key=key)
+    solved = _trade_fit(0.027, 0.0094, [0.0250, 0.027], target=fit.target)
+    made = _trade_fit(*spliced, target=fit.target)
+    seen = []
+
+    def splice(f, h, **_k):
+        seen.append((f, h))
+        return made, [3, 4]
+
+    monkeypatch.setattr(halve, "solve", lambda f, level, log=None, albedo_weight=None: (fit, solved))
+    monkeypatch.setattr(assemble, "splice", splice)
+    out, how = assemble.finish_halved(fit, "fitted", log=lambda _m: None)
+    assert seen and seen[0] == (solved, fit)
+    assert (out is made) == ships
+    assert ("kept at 2 of" in how) == ships
