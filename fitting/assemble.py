@@ -48,14 +48,14 @@ around its worst widths solved together (:mod:`.joint`), which
 ships under the re-solve's rules (no width worse by more than WIDTH_SLACK
 up to 70 deg or GRAZING_SLACK up to 85, the albedo within the target or no
 further off by more than ALBEDO_SLACK) where it lowers the worst case by
-WIDTH_SLACK or brings the albedo within the target.  Not yet a step of
-``make fit`` (``python -m tools.fit --finish --halve`` applies it to the
-committed data): a Smith variant still over its bound after that (but
-under HOPELESS: no factor of the light direction dominating) has its width
-nodes halved and the members' widths of the nodes around its worst widths
-fitted again, their series then re-solved together (:mod:`.halve`); that
-ships under the same rules, measured against the halved fit
-(:func:`finish_halved`).
+WIDTH_SLACK or brings the albedo within the target.  Then, for the
+variants in the Makefile's HALVE (``python -m tools.fit --finish --halve
+--only KEY``; about an hour a variant), a Smith variant still over its
+bound (but under HOPELESS: no factor of the light direction dominating)
+has its width nodes halved and the members' widths of the nodes around its
+worst widths fitted again, their series then re-solved together
+(:mod:`.halve`); that ships under the same rules, measured against the
+halved fit (:func:`finish_halved`).
 
 Reproducible like the fitter (no randomness beyond :func:`.mixtures.measure`'s
 seeded widths).
@@ -231,8 +231,9 @@ def _rise(new: M.Fit, old: M.Fit) -> float:
 def finish(fit: M.Fit, how: str, log=print, halving=False) -> tuple:
     """``(fit, how)`` through the choice's last step, the joint re-solve
     (:func:`finish_joint`); with ``halving``, then, for a Smith variant
-    still over the bound, the nodes halved (:func:`finish_halved`: not a
-    step of ``make fit`` yet, ``python -m tools.fit --finish --halve``)."""
+    still over the bound, the nodes halved (:func:`finish_halved`; ``make
+    fit`` runs it for the variants in its HALVE, ``python -m tools.fit
+    --finish --halve``)."""
     if JOINT not in how:
         fit, how = finish_joint(fit, how, log)
     return finish_halved(fit, how, log) if halving else (fit, how)

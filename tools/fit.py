@@ -11,8 +11,8 @@
   KEY ...``: choose those variants again, keep the others as committed);
 - ``--finish``: the choice's last step (the joint re-solve,
   :func:`fitting.assemble.finish`) applied to the committed module; with
-  ``--halve``, then the width nodes halved (:mod:`fitting.halve`, not a
-  step of ``make fit`` yet).
+  ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
+  fit`` runs it for the variants in its HALVE).
 """
 
 from __future__ import annotations
@@ -101,8 +101,8 @@ def finish(jobs=2, only=None, halving=False):
     variants) applied to the variants ``only`` (default: every Smith
     variant and Blinn-Phong that ships no single lobe), the others kept: what
     ``collect`` makes from fits collected before those steps existed.
-    ``halving``: the width nodes halved too (not a step of ``make fit``
-    yet: see fitting/halve.py)."""
+    ``halving``: the width nodes halved too (fitting/halve.py; ``make
+    fit`` runs it for the variants in its HALVE)."""
     from addon.core.fits import mixtures as data
     from fitting import assemble, mixtures
     targets = {t.key: t for t in mixtures.targets()}
@@ -185,7 +185,8 @@ def main(argv=None) -> int:
                              "mixtures (--only: to these variants)")
     parser.add_argument("--halve", action="store_true",
                         help="with --finish: also halve the width nodes of the Smith variants "
-                             "still over the bound (fitting/halve.py; not a step of make fit)")
+                             "still over the bound (fitting/halve.py; make fit runs it for the "
+                             "variants in its HALVE)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
