@@ -9,7 +9,7 @@
 #   make test TEST_JOBS=1      in one process (default: two, a test file each)
 #   make zip                   dist/reflection_models-<version>.zip
 #   make demo / make bench     the demo and benchmark scripts
-#   make fit                   the offline fit of the closure mixtures (about 4 h, resumable)
+#   make fit                   the offline fit of the closure mixtures (about 5 h, resumable)
 #   make venv                  only create/update the virtual environment
 #   make clean                 remove build/ and dist/ (the venvs stay; see distclean)
 #
