@@ -124,12 +124,14 @@ bench: $(STAMP)
 # Then the step that halves the width nodes (fitting/halve.py), for the
 # variants in HALVE only: it takes about an hour a variant, and was run for
 # these two (Trowbridge-Reitz with separable Smith in beta, the one other
-# variant it would try, has not been run through it).
+# variant it would try, has not been run through it).  With ONLY, only
+# those of them that were fitted again.
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
+HALVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(HALVE)),$(HALVE))
 fit: $(STAMP)
 	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
-	$(if $(HALVE),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE),)
+	$(if $(strip $(HALVE_NOW)),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE_NOW),)
 
 clean:
 	rm -rf build dist .pytest_cache
