@@ -286,16 +286,23 @@ def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
             said = (f"{HALVED}{note} (albedo weight {weight:g}): "
                     f"{m['max_abs_over_peak_70']:.4f} -> {n['max_abs_over_peak_70']:.4f}, "
                     f"albedo {m['albedo_difference_70']:.4f} -> {n['albedo_difference_70']:.4f}")
-            if _no_worse(out, halved) and not worse and _gain(out, halved) >= WIDTH_SLACK:
+            if _better_in_shape(out, halved) and _no_worse(out, halved):
                 log(f"  {fit.target.key}: {said}")
                 return out, f"{how}, {HALVED}{note}"
             log(f"  {fit.target.key}: {said}, worse at {len(worse)} widths "
                 f"({', '.join(worse[:3])}): not used")
-        a = halved.measured
-        if worse or _gain(out, halved) < WIDTH_SLACK \
-                or n["max_abs_over_peak_85"] > a["max_abs_over_peak_85"] + GRAZING_SLACK:
+        if not _better_in_shape(out, halved):
             break  # not the albedo alone: a dearer albedo would not make it ship
     return fit, how
+
+
+def _better_in_shape(new: M.Fit, old: M.Fit) -> bool:
+    """Everything :func:`finish_halved` asks of ``new`` against ``old`` but
+    the albedo: the worst case lower by WIDTH_SLACK, no width worse
+    (:func:`_worse_widths`), up to 85 deg no worse by GRAZING_SLACK."""
+    return (_gain(new, old) >= WIDTH_SLACK and not _worse_widths(new, old)
+            and new.measured["max_abs_over_peak_85"]
+            <= old.measured["max_abs_over_peak_85"] + GRAZING_SLACK)
 
 
 def finish_joint(fit: M.Fit, how: str, log=print) -> tuple:
