@@ -296,6 +296,14 @@ def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
     return fit, how
 
 
+def left_as_they_were(todo, chosen: dict, shipped: dict) -> list:
+    """The variants of ``todo`` that a finishing step left as they were:
+    what each ships (``chosen[key][1]``) the same as before (``shipped``),
+    since every step that ships adds its words to it.  Their committed
+    text is kept (:func:`.codegen.keep_entries`)."""
+    return [k for k in todo if chosen[k][1] == shipped[k]]
+
+
 def _better_in_shape(new: M.Fit, old: M.Fit) -> bool:
     """Everything :func:`finish_halved` asks of ``new`` against ``old`` but
     the albedo: the worst case lower by WIDTH_SLACK, no width worse

@@ -25,3 +25,22 @@ def array(values, indent: str = "    ", per_line: int = 4) -> str:
     items = [number(v) for v in values]
     lines = [", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line)]
     return "(\n" + "".join(f"{indent}{line},\n" for line in lines) + indent[:-4] + ")"
+
+
+def entries(text: str) -> dict:
+    """Each variant's entry in a generated mixtures module
+    (:func:`.mixtures.module_text`), by key: the lines from ``    'key': {``
+    to ``    },``."""
+    import re
+    return {m.group(1): m.group(0)
+            for m in re.finditer(r"^    '([^']+)': \{\n.*?^    \},\n", text, re.S | re.M)}
+
+
+def keep_entries(text: str, old: str, keys) -> str:
+    """``text`` with the entries of ``keys`` as ``old`` has them, byte for
+    byte (a round trip through :func:`.mixtures.load_fits` changes a
+    series in its last digits)."""
+    new_entries, old_entries = entries(text), entries(old)
+    for k in keys:
+        text = text.replace(new_entries[k], old_entries[k])
+    return text

@@ -734,3 +734,32 @@ def test_the_halved_fits_own_nodes_are_put_back_where_the_refit_is_worse(
     assert seen and seen[0] == (solved, fit)
     assert (out is made) == ships
     assert ("kept at 2 of" in how) == ships
+
+
+@pytest.mark.parametrize("changed", [False, True], ids=["left", "changed"])
+def test_a_finishing_step_that_ships_nothing_keeps_the_committed_text(changed):
+    """A finishing step (``tools.fit --finish``, ``--derive``) writes the
+    module anew; a variant it left as it was ("how" unchanged) keeps its
+    committed text byte for byte (a round trip through the loader changes
+    the series in the last digits), one it changed gets the new data."""
+    import fitting
+    from fitting import assemble
+    from fitting.codegen import entries, keep_entries
+    data = _data()
+    key = "microfacet/blinn/smith/beta"
+    committed = (fitting.FITS / "mixtures.py").read_text()
+    keys = [t.key for t in M.targets()]
+    fits = M.load_fits(keys)
+    how = data.SHIPPED[key]
+    if changed:
+        fits[key].weights = 0.5 * fits[key].weights
+        how += ", a test step"
+    kept = [k for k in keys if k != key] + assemble.left_as_they_were(
+        [key], {key: (fits[key], how)}, data.SHIPPED)
+    written = keep_entries(M.module_text([fits[k] for k in keys]), committed, kept)
+    old, new = entries(committed), entries(written)
+    assert set(old) == set(new) == set(keys)
+    assert all(old[k] == new[k] for k in keys if k != key)  # the others untouched either way
+    assert (new[key] == old[key]) != changed
+    # the round trip alone is not byte for byte: what keeping the text is for
+    assert entries(M.module_text([M.load_fits([key])[key]]))[key] != old[key]

@@ -138,17 +138,15 @@ def _redo(work, todo, keys, jobs, committed=False):
         _check_committed(todo, keys)
         kept = [k for k in keys if k not in todo]
         chosen = {k: (fit, data.SHIPPED[k]) for k, fit in mixtures.load_fits(kept).items()}
-    with ProcessPoolExecutor(jobs) as pool:
-        chosen.update(zip(todo, pool.map(work, todo)))
+    if jobs == 1:  # in this process
+        chosen.update(zip(todo, map(work, todo)))
+    else:
+        with ProcessPoolExecutor(jobs) as pool:
+            chosen.update(zip(todo, pool.map(work, todo)))
+    if committed:  # a variant the step left as it was keeps its committed text
+        from fitting.assemble import left_as_they_were
+        kept += left_as_they_were(todo, chosen, data.SHIPPED)
     _write(chosen, keys, kept)
-
-
-def _blocks(text):
-    """Each variant's entry in a module_text, by key (the lines from
-    ``    'key': {`` to ``    },``)."""
-    import re
-    return {m.group(1): m.group(0)
-            for m in re.finditer(r"^    '([^']+)': \{\n.*?^    \},\n", text, re.S | re.M)}
 
 
 def _write(chosen, keys, kept=()):
@@ -161,9 +159,8 @@ def _write(chosen, keys, kept=()):
     path = FITS / "mixtures.py"
     text = mixtures.module_text([chosen[k][0] for k in keys])
     if kept:
-        old, new = _blocks(path.read_text()), _blocks(text)
-        for k in kept:
-            text = text.replace(new[k], old[k])
+        from fitting.codegen import keep_entries
+        text = keep_entries(text, path.read_text(), kept)
     path.write_text(text
                     + "\n# variants with no fitted width: a single lobe of their kind at the\n"
                     "# equivalent width (fitting/assemble.py), measured like the fits\n"
