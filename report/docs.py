@@ -296,6 +296,7 @@ RE_SOLVED = "its weight series re-solved"  # fitting/assemble.choose's words
 SETTLED = "a member moved to Cycles' alpha limit"  # ditto
 JOINT = "neighbouring nodes' series re-solved together"  # fitting/assemble.finish's words
 TRADE = "the albedo brought within"  # ditto, where widths rose for the albedo
+DERIVED = "resampled in log alpha from the fit in beta"  # fitting/reparam's words
 
 
 def _remains_numbers() -> dict:
@@ -311,6 +312,7 @@ def _remains_numbers() -> dict:
     joint = [k for k in mixtures.SHIPPED if k.startswith("microfacet/")
              and JOINT in mixtures.shipped(k) and TRADE not in mixtures.shipped(k)]
     trade = [k for k in mixtures.SHIPPED if TRADE in mixtures.shipped(k)]
+    derived = [k for k in mixtures.SHIPPED if DERIVED in mixtures.shipped(k)]
     smith_keys = [k for k in mixtures.SHIPPED
                   if k.startswith("microfacet/") and k.split("/")[2] in ("smith", "smith_correlated")]
     within = [k for k in smith_keys if m(k) <= 0.025]
@@ -324,6 +326,9 @@ def _remains_numbers() -> dict:
                                for k in trade) if trade else "nowhere today",
             "within": ", ".join(f"`{k}`" for k in within) if within else "none",
             "over": ", ".join(f"`{k}` ({m(k):.3f})" for k in over) if over else "none",
+            "derived": ", ".join(f"`{k}` ({m(k):.3f}, albedo "
+                                 f"{mixtures.measured(k)['albedo_difference_70']:.4f})"
+                                 for k in derived) if derived else "nowhere today",
             "beckmann_beta": f"{m('microfacet/beckmann/smith/beta'):.2f}",
             "blinn_phong": f"{m('blinn_phong'):.3f}",
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.3f}",
@@ -365,10 +370,13 @@ REMAINS = {
         "for Trowbridge-Reitz the best at the 70 deg view "
         "is 0.030 (0.026-0.029 with the albedo left free), so 0.025 is beyond its members "
         "there: the light-dependent part of the separable G1(i) G1(o) that the closures' "
-        "correlated G has not.  The widths given as alpha are worst "
-        "between alpha 0.76 "
-        "and 1: the last width node inside the closures' range is at 0.76 and the next at "
-        "1.32, beyond it.  Beckmann with Smith in beta is within 0.025 up to beta ~63 deg, "
+        "correlated G has not.  The Smith variants given as alpha had their own fits on "
+        "16 nodes of log alpha from 0.001 to 4, whose interval from alpha 0.76 to 1.32 "
+        "straddles the closures' limit (Beckmann 0.051, a single lobe; Trowbridge-Reitz "
+        "0.078); they take their siblings' fits in beta instead, resampled on 61 nodes "
+        "(the same model at the beta's equivalent width; the nodes the beta fit does not "
+        "reach and those with the albedo off fitted again, then the joint re-solve; "
+        "fitting/reparam.py, the last step of make fit): {derived}.  Beckmann with Smith in beta is within 0.025 up to beta ~63 deg, "
         "where its m reaches 1; no closure is wider (Cycles clamps alpha to 1), so it rises "
         "to {beckmann_beta} at 85 deg.  Where a fit measured worse than the single lobe of its "
         "kind with a weight per view, at some widths or everywhere, that lobe ships there "

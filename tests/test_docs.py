@@ -41,3 +41,11 @@ def test_a_missing_face_is_reported(monkeypatch):
     monkeypatch.delitem(formulas.FORMULAS, "ward")
     with pytest.raises(LookupError, match="no formula"):
         docs.faces("ward")
+
+
+def test_the_docs_quote_the_fitters_words():
+    """report/docs.py finds what each variant's data went through by the
+    fitter's own words in what it ships (SHIPPED); a reworded step would
+    drop out of the docs silently."""
+    from fitting import assemble, reparam
+    assert docs.JOINT == assemble.JOINT and docs.DERIVED == reparam.DERIVED

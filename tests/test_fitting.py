@@ -763,3 +763,111 @@ def test_a_finishing_step_that_ships_nothing_keeps_the_committed_text(changed):
     assert (new[key] == old[key]) != changed
     # the round trip alone is not byte for byte: what keeping the text is for
     assert entries(M.module_text([M.load_fits([key])[key]]))[key] != old[key]
+
+@pytest.mark.parametrize("key", ["microfacet/beckmann/smith/alpha",
+                                 "microfacet/trowbridge_reitz/smith/alpha"])
+def test_the_alpha_variant_at_a_betas_equivalent_width_is_the_beta_variant(key):
+    """fitting/reparam's premise: the model given beta is the model given
+    the native alpha at the beta's equivalent width (Beckmann's m, GGX's
+    alpha), at random directions; 1e-9 relative (the two go through
+    different formulas for the width only)."""
+    from addon import reference as R
+    from fitting import reparam
+    targets = {t.key: t for t in M.targets()}
+    a, b = targets[key], targets[reparam.SIBLINGS[key]]
+    rng = np.random.default_rng(3)
+    v = rng.normal(size=(2, 64, 3))
+    v[..., 2] = np.abs(v[..., 2]) + 0.1
+    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    for deg in (4.0, 30.0, 60.0):
+        value = math.radians(deg)
+        want = R.shade(b.model, v[0], v[1], **b.params(value))
+        got = R.shade(a.model, v[0], v[1], **a.params(math.log(b.equivalent_alpha(value))))
+        shown = want > 1e-200  # far outside a narrow lobe the values underflow
+        assert shown.sum() > 40
+        assert np.max(np.abs(got[shown] / want[shown] - 1)) < 1e-9, deg
+        assert np.all(np.abs(got[~shown]) < 1e-190)
+
+
+def test_resampling_a_fit_keeps_its_function():
+    """fitting/reparam.resample: 16 nodes within 61 (every fourth), so the
+    resampled data is the same function at any width (1e-12: rounding)."""
+    from fitting import reparam
+    fit = M.load_fits(["microfacet/gaussian/smith/beta"])[
+        "microfacet/gaussian/smith/beta"]
+    assert len(fit.width_values) == 16
+    out = reparam.resample(fit, 61)
+    rng = np.random.default_rng(4)
+    for value in rng.uniform(*fit.target.domain, 12):
+        for c in (1.0, 0.6, 0.2):
+            a0, w0 = M.evaluate_series(fit, float(value), c)
+            a1, w1 = M.evaluate_series(out, float(value), c)
+            assert np.allclose(a1, a0, rtol=1e-12, atol=0) and np.allclose(w1, w0, rtol=1e-12,
+                                                                           atol=1e-14)
+
+
+@pytest.mark.parametrize("key", ["microfacet/beckmann/smith/alpha",
+                                 "microfacet/trowbridge_reitz/smith/alpha"])
+def test_the_resampled_alpha_data_is_the_beta_fit_at_its_nodes(key):
+    """fitting/reparam.resampled: at each node the beta fit reaches, the
+    members' widths and weights the shaders compute are the beta fit's at
+    the beta of that alpha (1e-9: the bisection; below the beta domain,
+    its first node's, the members' widths multiples of this alpha); beyond
+    its reach, the alpha variant's own data."""
+    from fitting import reparam
+    fits = M.load_fits([key, reparam.SIBLINGS[key]])
+    own, beta = fits[key], fits[reparam.SIBLINGS[key]]
+    out = reparam.resampled(own, beta)
+    cover = beta.target.equivalent_alpha(reparam.reach(beta))
+    assert 0.8 < cover <= 1.0  # Beckmann: m 0.99 at beta 62.6 deg; GGX: alpha 0.84 at 85 deg
+    inside = 0
+    for x in out.width_values:
+        alpha = math.exp(x)
+        for c in (1.0, 0.5, 0.2):
+            got = M.evaluate_series(out, float(x), c)
+            if alpha <= cover:
+                b = reparam.beta_of(beta.target, alpha)
+                want = M.evaluate_series(beta, b, c)
+                # below the beta domain, its first node's multiples of this alpha
+                want = (np.clip(want[0] * alpha / beta.target.equivalent_alpha(b),
+                                M.ALPHA_MIN, M.ALPHA_MAX), want[1])
+                inside += 1
+            else:
+                want = M.evaluate_series(own, float(x), c)
+            assert np.allclose(got[0], want[0], rtol=1e-9) and \
+                np.allclose(got[1], want[1], rtol=1e-9, atol=1e-12), (alpha, c)
+    assert inside >= 3 * 45
+
+
+@pytest.mark.parametrize("new, worse, ships", [
+    # lower by more than WIDTH_SLACK, the albedo into the target: ships
+    ((0.028, 0.009), [], True),
+    # lower, but a width worse by more than WIDTH_SLACK: not used
+    ((0.028, 0.009), ["0.5 (0.010 -> 0.020)"], False),
+    # lower by less than WIDTH_SLACK: not used
+    ((0.0495, 0.009), [], False),
+    # the albedo further off than ALBEDO_SLACK beyond the target: not used
+    ((0.028, 0.0233), [], False),
+])
+def test_the_alpha_data_from_beta_ships_only_where_it_is_better(monkeypatch, new, worse, ships):
+    """fitting/reparam.finish_derived: the derived data ships where its
+    worst case is lower by WIDTH_SLACK, no width measured by both is worse
+    by more than WIDTH_SLACK and the albedo is within the target or no
+    further off by more than ALBEDO_SLACK (the old: 0.050, albedo 0.020)."""
+    from fitting import assemble, reparam
+    key = "microfacet/beckmann/smith/alpha"
+    target = {t.key: t for t in M.targets()}[key]
+    old = _trade_fit(0.050, 0.020, [0.050], target=target)
+    old.measured["bad_weights"] = 0
+    made = _trade_fit(new[0], new[1], [new[0]], target=target)
+    made.measured["bad_weights"] = 0
+    monkeypatch.setattr(reparam, "derive", lambda own, beta, log=None: made)
+    monkeypatch.setattr(reparam, "resample", lambda fit, n: fit)
+    monkeypatch.setattr(assemble, "splice", lambda f, _o, **_k: (f, []))  # nothing put back
+    monkeypatch.setattr(reparam, "compare", lambda a, b: worse)
+    monkeypatch.setattr(assemble, "finish", lambda f, h, log=None: (f, h))  # the joint step's own tests
+    from types import SimpleNamespace
+    beta = SimpleNamespace(target=SimpleNamespace(key="microfacet/beckmann/smith/beta"))
+    out, how = reparam.finish_derived(old, "single lobe", beta, log=lambda _m: None)
+    assert (out is made) == ships and (reparam.DERIVED in how) == ships
+    assert how.startswith("fitted, ") == ships

@@ -9,6 +9,9 @@
   (:mod:`fitting.assemble`);
 - ``--collect``: the module from the fits made so far (``--collect --only
   KEY ...``: choose those variants again, keep the others as committed);
+- ``--derive``: the Smith variants in alpha given their siblings in
+  beta's fits, resampled (:mod:`fitting.reparam`; ``make fit`` runs it
+  after the rest);
 - ``--finish``: the choice's last step (the joint re-solve,
   :func:`fitting.assemble.finish`) applied to the committed module; with
   ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
@@ -112,6 +115,32 @@ def finish(jobs=2, only=None, halving=False):
           committed=True)
 
 
+def _derive(key):
+    """One committed variant in alpha, given its sibling in beta's fit where
+    that ships (:func:`fitting.reparam.finish_derived`)."""
+    from addon.core.fits import mixtures as data
+    from fitting import mixtures, reparam
+    fits = mixtures.load_fits([key, reparam.SIBLINGS[key]])
+    fit = fits[key]
+    fit.measured = mixtures.measure(fit)
+    out = reparam.finish_derived(fit, data.SHIPPED[key], fits[reparam.SIBLINGS[key]],
+                                 log=lambda msg: print(msg, flush=True))
+    print(f"{key}: ships {out[1]}: {out[0].measured['max_abs_over_peak_70']:.4f}", flush=True)
+    return out
+
+
+def derive(jobs=2, only=None):
+    """The committed module with the variants in alpha given their siblings
+    in beta's fits where that is better (:mod:`fitting.reparam`; ``only``:
+    those of them named, or whose sibling is), the others kept."""
+    from fitting import mixtures, reparam
+    todo = [a for a, b in reparam.SIBLINGS.items() if not only or a in only or b in only]
+    if not todo:
+        print("no variant in alpha to derive")
+        return
+    _redo(_derive, todo, [t.key for t in mixtures.targets()], jobs, committed=True)
+
+
 def _check_committed(todo, keys):
     """Exit unless the committed module comes from this fitter (so its other
     variants can be kept) and ``todo`` are variants."""
@@ -184,12 +213,19 @@ def main(argv=None) -> int:
                         help="with --finish: also halve the width nodes of the Smith variants "
                              "still over the bound (fitting/halve.py; make fit runs it for the "
                              "variants in its HALVE)")
+    parser.add_argument("--derive", action="store_true",
+                        help="give the Smith variants in alpha their siblings in beta's fits, "
+                             "resampled, where that measures better (fitting/reparam.py; --only: "
+                             "those named or whose sibling is named); make fit runs it last")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
     args = parser.parse_args(argv)
     if args.collect:
         collect(args.jobs, args.only)
+        return 0
+    if args.derive:
+        derive(args.jobs, args.only)
         return 0
     if args.finish:
         finish(args.jobs, args.only, halving=args.halve)
