@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The Smith variants given as alpha, from their siblings given as beta.
 
-Beckmann and Trowbridge-Reitz with separable Smith are two variants each:
+Beckmann and Trowbridge-Reitz with separable Smith (and Beckmann with the
+1967 bracket, below) are two variants each:
 the width as the highlight half-angle beta, or as the native alpha.  At a
 beta the model *is* the alpha variant at alpha(beta) (Beckmann's m or GGX's
 alpha of the same beta, the fit's equivalent width), so the fits describe
@@ -43,11 +44,15 @@ step like any fit (:func:`.assemble.finish`: the joint re-solve).
 Deterministic: the node fit's search starts from fixed points, and the
 measurement's widths are seeded.
 
-Only the Smith variants: tried on Trowbridge-Reitz without shadowing and
-with the V-groove (the albedo refit off: their albedo is off everywhere),
-the resampled data measured worse (0.472 -> 0.609 and 0.275 -> 0.279,
-worse at 2 and 12 widths), their error being a factor of the light
-direction no mixture carries, at alpha 1 as elsewhere.  ``python -m tools.fit --derive``;
+Also Beckmann with Smith's 1967 bracket (an approximation: its factors
+per direction are not any closure's): 0.170 -> 0.126, the albedo 0.141
+-> 0.024.  Not the other pairs: tried without shadowing and with the
+V-groove (the albedo refit off: their albedo is off everywhere), the
+resampled data measured worse (Trowbridge-Reitz 0.472 -> 0.609 and 0.275
+-> 0.279; Beckmann 0.267 -> 0.269, and 0.269 either way but worse at 12
+widths), their error
+being a factor of the light direction no mixture carries, at alpha 1 as
+elsewhere.  ``python -m tools.fit --derive``;
 ``make fit`` runs it last.
 """
 
@@ -60,6 +65,7 @@ from . import mixtures as M
 SIBLINGS = {  # variant in alpha: its sibling in beta
     "microfacet/beckmann/smith/alpha": "microfacet/beckmann/smith/beta",
     "microfacet/trowbridge_reitz/smith/alpha": "microfacet/trowbridge_reitz/smith/beta",
+    "microfacet/beckmann/smith_1967/alpha": "microfacet/beckmann/smith_1967/beta",
 }
 N_NODES = 61  # nodes over log alpha: 0.14 apart (the beta fits' nodes are 0.1-0.2 apart in log alpha)
 ALBEDO_REFIT = 0.01  # a resampled node whose albedo is off by more is fitted again

@@ -765,7 +765,8 @@ def test_a_finishing_step_that_ships_nothing_keeps_the_committed_text(changed):
     assert entries(M.module_text([M.load_fits([key])[key]]))[key] != old[key]
 
 @pytest.mark.parametrize("key", ["microfacet/beckmann/smith/alpha",
-                                 "microfacet/trowbridge_reitz/smith/alpha"])
+                                 "microfacet/trowbridge_reitz/smith/alpha",
+                                 "microfacet/beckmann/smith_1967/alpha"])
 def test_the_alpha_variant_at_a_betas_equivalent_width_is_the_beta_variant(key):
     """fitting/reparam's premise: the model given beta is the model given
     the native alpha at the beta's equivalent width (Beckmann's m, GGX's
