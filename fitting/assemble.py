@@ -296,12 +296,19 @@ def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
     return fit, how
 
 
-def left_as_they_were(todo, chosen: dict, shipped: dict) -> list:
-    """The variants of ``todo`` that a finishing step left as they were:
-    what each ships (``chosen[key][1]``) the same as before (``shipped``),
-    since every step that ships adds its words to it.  Their committed
-    text is kept (:func:`.codegen.keep_entries`)."""
-    return [k for k in todo if chosen[k][1] == shipped[k]]
+def left_as_they_were(chosen: dict, committed: dict, shipped: dict) -> list:
+    """The variants a finishing step left as they were: ``chosen[key] =
+    (fit, how)`` with the committed fit's node values (``committed``, as
+    :func:`.mixtures.load_fits` gives them) and the committed words
+    (``shipped``).  Their committed text is kept
+    (:func:`.codegen.keep_entries`); the words alone would not do (a step
+    run again on changed data can ship new data in the same words)."""
+    def same(a, b):
+        return (a.multipliers.shape == b.multipliers.shape and a.weights.shape == b.weights.shape
+                and np.array_equal(a.multipliers, b.multipliers)
+                and np.array_equal(a.weights, b.weights))
+    return [k for k, (fit, how) in chosen.items()
+            if k in committed and how == shipped[k] and same(fit, committed[k])]
 
 
 def _better_in_shape(new: M.Fit, old: M.Fit) -> bool:

@@ -174,7 +174,8 @@ def _redo(work, todo, keys, jobs, committed=False):
             chosen.update(zip(todo, pool.map(work, todo)))
     if committed:  # a variant the step left as it was keeps its committed text
         from fitting.assemble import left_as_they_were
-        kept += left_as_they_were(todo, chosen, data.SHIPPED)
+        kept += left_as_they_were({k: chosen[k] for k in todo}, mixtures.load_fits(todo),
+                                  data.SHIPPED)
     _write(chosen, keys, kept)
 
 
