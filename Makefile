@@ -127,7 +127,7 @@ bench: $(STAMP)
 # variant it would try, has not been run through it).  With ONLY, only
 # those of them that were fitted again.  Last, the Smith variants in alpha
 # get their siblings in beta's fits, resampled, where that measures better
-# (fitting/reparam.py; about 5 minutes; with ONLY, those named or whose
+# (fitting/reparam.py; 5-10 minutes; with ONLY, those named or whose
 # sibling is).
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
