@@ -286,7 +286,7 @@ def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
             said = (f"{HALVED}{note} (albedo weight {weight:g}): "
                     f"{m['max_abs_over_peak_70']:.4f} -> {n['max_abs_over_peak_70']:.4f}, "
                     f"albedo {m['albedo_difference_70']:.4f} -> {n['albedo_difference_70']:.4f}")
-            if _better_in_shape(out, halved) and _no_worse(out, halved):
+            if better(out, halved):
                 log(f"  {fit.target.key}: {said}")
                 return out, f"{how}, {HALVED}{note}"
             log(f"  {fit.target.key}: {said}, worse at {len(worse)} widths "
@@ -311,11 +311,22 @@ def left_as_they_were(chosen: dict, committed: dict, shipped: dict) -> list:
             if k in committed and how == shipped[k] and same(fit, committed[k])]
 
 
-def _better_in_shape(new: M.Fit, old: M.Fit) -> bool:
+def better(new: M.Fit, old: M.Fit, worse=None) -> bool:
+    """The rule :func:`finish_halved` (and :func:`.reparam.finish_derived`)
+    ships ``new`` in place of ``old`` by: :func:`_better_in_shape` and
+    :func:`_no_worse` (the albedo too).  ``worse``: the widths where
+    ``new`` errs more, where the two are not measured at the same widths
+    (default :func:`_worse_widths`)."""
+    return _better_in_shape(new, old, worse) and _no_worse(new, old)
+
+
+def _better_in_shape(new: M.Fit, old: M.Fit, worse=None) -> bool:
     """Everything :func:`finish_halved` asks of ``new`` against ``old`` but
     the albedo: the worst case lower by WIDTH_SLACK, no width worse
-    (:func:`_worse_widths`), up to 85 deg no worse by GRAZING_SLACK."""
-    return (_gain(new, old) >= WIDTH_SLACK and not _worse_widths(new, old)
+    (``worse``, default :func:`_worse_widths`), up to 85 deg no worse by
+    GRAZING_SLACK."""
+    worse = _worse_widths(new, old) if worse is None else worse
+    return (_gain(new, old) >= WIDTH_SLACK and not worse
             and new.measured["max_abs_over_peak_85"]
             <= old.measured["max_abs_over_peak_85"] + GRAZING_SLACK)
 

@@ -202,8 +202,7 @@ def _measured_widths(fit: M.Fit) -> list:
 def finish_derived(fit: M.Fit, how: str, beta_fit: M.Fit, log=print) -> tuple:
     """``(fit, how)``, or the data derived from ``beta_fit`` (:func:`derive`)
     where it ships under the module docstring's rule."""
-    from .assemble import (ALBEDO_SLACK, ALBEDO_TARGET, GRAZING_SLACK, SPLICE_MARGIN,
-                           WIDTH_SLACK, finish, joint_step, splice)
+    from .assemble import SPLICE_MARGIN, better, finish, joint_step, splice
 
     key = fit.target.key
     new = derive(fit, beta_fit, log=log)
@@ -216,12 +215,7 @@ def finish_derived(fit: M.Fit, how: str, beta_fit: M.Fit, log=print) -> tuple:
             f"{a['max_abs_over_peak_70']:.4f} -> {b['max_abs_over_peak_70']:.4f}, "
             f"up to 85 deg {a['max_abs_over_peak_85']:.4f} -> {b['max_abs_over_peak_85']:.4f}, "
             f"albedo {a['albedo_difference_70']:.4f} -> {b['albedo_difference_70']:.4f}")
-    ships = (a["max_abs_over_peak_70"] - b["max_abs_over_peak_70"] >= WIDTH_SLACK
-             and not worse and b["bad_weights"] == 0
-             and b["max_abs_over_peak_85"] <= a["max_abs_over_peak_85"] + GRAZING_SLACK
-             and b["albedo_difference_70"] <= max(ALBEDO_TARGET,
-                                                  a["albedo_difference_70"] + ALBEDO_SLACK))
-    if not ships:
+    if not (better(new, fit, worse) and b["bad_weights"] == 0):
         log(f"  {said}; worse at {len(worse)} widths ({', '.join(worse[:3])}): not used")
         return fit, how
     log(f"  {said}: ships")
