@@ -128,7 +128,9 @@ bench: $(STAMP)
 # those of them that were fitted again.  Last, the Smith variants in alpha
 # get their siblings in beta's fits, resampled, where that measures better
 # (fitting/reparam.py; 5-10 minutes; with ONLY, those named or whose
-# sibling is).
+# sibling is).  Not run by make fit: `python -m tools.fit --move --only KEY`,
+# which moves the members' widths node by node (fitting/widths.py); tried on
+# the two variants in HALVE, it shipped for neither (docs/verification.md).
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
 HALVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(HALVE)),$(HALVE))

@@ -55,7 +55,11 @@ bound (but under HOPELESS: no factor of the light direction dominating)
 has its width nodes halved and the members' widths of the nodes around its
 worst widths fitted again, their series then re-solved together
 (:mod:`.halve`); that ships under the same rules, measured against the
-halved fit (:func:`finish_halved`).
+halved fit (:func:`finish_halved`).  :func:`finish_moved` (``python -m
+tools.fit --move``, not a step of ``make fit``: tried on those two
+variants, it shipped for neither) moves the members' widths node by node
+instead, each move judged by the node's series solved again
+(:mod:`.widths`), under the same rule.
 
 Reproducible like the fitter (no randomness beyond :func:`.mixtures.measure`'s
 seeded widths).
@@ -63,12 +67,13 @@ seeded widths).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from . import mixtures as M
-from . import halve, joint
+from . import halve, joint, widths
 from .clamp import settle, window_errors
 from .polish import SampleCache, polish
 
@@ -293,6 +298,62 @@ def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
                 f"({', '.join(worse[:3])}): not used")
         if not _better_in_shape(out, halved):
             break  # not the albedo alone: a dearer albedo would not make it ship
+    return fit, how
+
+
+MOVED = ("the members' widths of the nodes around its worst widths moved, "
+         "each node's series solved again")
+
+
+def finish_moved(fit: M.Fit, how: str, log=print) -> tuple:
+    """``(fit, how)``, or, for a Smith variant (:func:`re_solved`) still
+    over the bound but under HOPELESS, the fit with the members' widths of
+    the nodes around its worst widths moved, each move judged by the node's
+    series solved again (:mod:`.widths`), where that ships by
+    :func:`better` (the halving step's rule, measured at the same widths);
+    where some widths measure worse, with the fit's own nodes put back
+    where they lower the error around them (:func:`splice`), by the same
+    rule; where that fails too, the search again with no width of a
+    node's window allowed to rise up to 70 deg (as :func:`finish_joint`
+    solves again with NO_RISE).  The search sweeps widths.SWEEPS times, each
+    over the nodes around the widths still erring more than the level
+    (:func:`.joint.region`).  Run once: a fit whose ``how`` says it
+    was is left as it is."""
+    m = fit.measured
+    aim = bound(fit.target)
+    if MOVED in how or not re_solved(fit.target) \
+            or not aim < m["max_abs_over_peak_70"] < M.HOPELESS:
+        return fit, how
+    level = joint.REGION_FRACTION * aim
+    for rise in (joint.RISE, joint.NO_RISE):
+        stage = f"moved{widths.VERSION}" + ("" if rise == joint.RISE else f"-rise{rise:g}")
+        moved = fit
+        for _sweep in range(widths.SWEEPS):  # each over the nodes around the widths still over
+            free = joint.region(moved, level=level)
+            moved = halve._kept(moved, level, stage,
+                                functools.partial(widths.move, moved, free, log=log, rise=rise),
+                                log)
+        tries = [(moved, "")]
+        if _worse_widths(moved, fit):
+            spliced, kept = splice(moved, fit, log=log, what="the fit's own node",
+                                   margin=SPLICE_MARGIN)
+            if kept:
+                tries.append((spliced, f" (its own nodes kept at {len(kept)} of "
+                                       f"{len(moved.width_values)})"))
+        for out, note in tries:
+            n = out.measured
+            said = (f"{MOVED}{note} (a width may rise by {rise:g}): "
+                    f"{m['max_abs_over_peak_70']:.4f} -> {n['max_abs_over_peak_70']:.4f}, "
+                    f"albedo {m['albedo_difference_70']:.4f} -> "
+                    f"{n['albedo_difference_70']:.4f}")
+            if better(out, fit):
+                log(f"  {fit.target.key}: {said}")
+                return out, f"{how}, {MOVED}{note}"
+            worse = _worse_widths(out, fit)
+            log(f"  {fit.target.key}: {said}, worse at {len(worse)} widths "
+                f"({', '.join(worse[:3])}): not used")
+        if not _worse_widths(moved, fit) and _gain(moved, fit) < WIDTH_SLACK:
+            break  # nothing rose: the search with less room would not gain more
     return fit, how
 
 

@@ -126,9 +126,15 @@ def _window(fit, j):
     return sorted({v for v in out if v <= soft + 1e-12}), []
 
 
-def _solve_node(fit, series, j, get):
-    """The coefficients (K, N) of node j minimising the window's error,
-    no width of the window erring more than it does now."""
+def _solve_node(fit, series, j, get, start=8, views=FIT_VIEWS_DEG, limits=None,
+                grazing=GRAZING_DEG):
+    """``(coefficients (K, N), the window's error, its widths' errors now)``:
+    the coefficients of node j minimising the window's error at ``views``
+    (and ``grazing`` beyond 70 deg), no width of the window erring more than it does now
+    (or than ``limits``: per width of :func:`_window`, its error up to 70
+    and up to 85 deg); ``None`` where the node is left as it is.  The
+    cutting planes start from every ``start``-th row
+    (:func:`_cutting_planes`)."""
     target = fit.target
     nodes = fit.width_values
     K, N = series.shape[1], series.shape[2]
@@ -166,7 +172,7 @@ def _solve_node(fit, series, j, get):
         z = hw @ fit.multipliers
         alphas = M.alphas_from_multipliers(z, target.equivalent_alpha(value))
         sets = []
-        for deg in FIT_VIEWS_DEG + GRAZING_DEG:
+        for deg in tuple(views) + tuple(grazing):
             s = get(value, deg)
             A, a = M._block(s, target.members, alphas)
             T = _cheb_row(deg, N)
@@ -229,6 +235,7 @@ def _solve_node(fit, series, j, get):
     lhs = A_ub[:, :K * N] @ x0[:K * N] - b_ub
     if max(caps[0:2 * len(primary):2]) < NEGLIGIBLE and lhs[owner == E3].max(initial=0.0) <= 0.0:
         return None
+    now, caps = caps, (caps if limits is None else list(limits))
     # a width may exceed its cap only by an excess that costs OVER_CAP each
     # (where the shaders clamp a weight now, weights >= 0 may not reach the
     # error it has); a solution with any excess is not taken
@@ -243,10 +250,10 @@ def _solve_node(fit, series, j, get):
     c[K * N + 4:nv:2] = SPREAD * GRAZING_WEIGHT / KN
     c[nv:] = OVER_CAP
     bounds = [(None, None)] * (K * N) + [(0, None)] * (3 + 2 * KN + nc)
-    x = _cutting_planes(c, A_ub, b_ub, bounds)
+    x = _cutting_planes(c, A_ub, b_ub, bounds, start=start)
     if x is None or x[nv:].max() > CAP_TOLERANCE:  # a width would get worse: left as it is
         return None
-    return x[:K * N].reshape(K, N), float(x[E1])
+    return x[:K * N].reshape(K, N), float(x[E1]), now
 
 
 def _cutting_planes(c, A_ub, b_ub, bounds, start=8, add=400, rounds=40):

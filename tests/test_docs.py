@@ -49,3 +49,4 @@ def test_the_docs_quote_the_fitters_words():
     drop out of the docs silently."""
     from fitting import assemble, reparam
     assert docs.JOINT == assemble.JOINT and docs.DERIVED == reparam.DERIVED
+    assert docs.MOVED == assemble.MOVED

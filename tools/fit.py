@@ -15,7 +15,11 @@
 - ``--finish``: the choice's last step (the joint re-solve,
   :func:`fitting.assemble.finish`) applied to the committed module; with
   ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
-  fit`` runs it for the variants in its HALVE).
+  fit`` runs it for the variants in its HALVE);
+- ``--move``: the members' widths of the nodes around a Smith variant's
+  worst widths moved, each node's series solved again, where that ships
+  (:mod:`fitting.widths`; ``make fit`` does not run it: tried on the
+  variants in its HALVE, it shipped for neither).
 """
 
 from __future__ import annotations
@@ -141,6 +145,29 @@ def derive(jobs=2, only=None):
     _redo(_derive, todo, [t.key for t in mixtures.targets()], jobs, committed=True)
 
 
+def _move(key):
+    """One committed variant with its members' widths moved where that
+    ships (:func:`fitting.assemble.finish_moved`)."""
+    from addon.core.fits import mixtures as data
+    from fitting import assemble, halve, mixtures
+    halve.CACHE_DIR = CACHE  # the step's result kept: a run resumes
+    fit = mixtures.load_fits([key])[key]
+    fit.measured = mixtures.measure(fit)
+    out = assemble.finish_moved(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True))
+    print(f"{key}: ships {out[1]}: {out[0].measured['max_abs_over_peak_70']:.4f}", flush=True)
+    return out
+
+
+def move(jobs=2, only=None):
+    """The committed module with the variants ``only`` (default: the
+    Smith variants) given :func:`fitting.assemble.finish_moved`, the
+    others kept."""
+    from fitting import assemble, mixtures
+    targets = {t.key: t for t in mixtures.targets()}
+    todo = only or [k for k, t in targets.items() if assemble.re_solved(t)]
+    _redo(_move, todo, list(targets), jobs, committed=True)
+
+
 def _check_committed(todo, keys):
     """Exit unless the committed module comes from this fitter (so its other
     variants can be kept) and ``todo`` are variants."""
@@ -218,6 +245,11 @@ def main(argv=None) -> int:
                         help="give the Smith variants in alpha their siblings in beta's fits, "
                              "resampled, where that measures better (fitting/reparam.py; --only: "
                              "those named or whose sibling is named); make fit runs it last")
+    parser.add_argument("--move", action="store_true",
+                        help="move the members' widths of the nodes around the worst widths of "
+                             "the Smith variants still over the bound, each node's series solved "
+                             "again, where that measures better (fitting/widths.py; --only: those "
+                             "variants; make fit does not run it)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
@@ -227,6 +259,9 @@ def main(argv=None) -> int:
         return 0
     if args.derive:
         derive(args.jobs, args.only)
+        return 0
+    if args.move:
+        move(args.jobs, args.only)
         return 0
     if args.finish:
         finish(args.jobs, args.only, halving=args.halve)
