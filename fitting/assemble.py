@@ -249,6 +249,20 @@ HALVED_ALBEDO_WEIGHT = 10.0  # the albedo's excess in the halved fit's programme
 SPLICE_MARGIN = 1e-6  # a halved node put back only where it lowers the error by more (not rounding)
 
 
+def _tries(new: M.Fit, old: M.Fit, whose: str, log=print) -> list:
+    """``[(fit, note), ...]`` a finishing step measures by its rule:
+    ``new``, and where some widths measure worse than ``old``'s, ``new``
+    with ``old``'s nodes put back where they lower the error around them
+    (:func:`splice`); ``whose`` names ``old``'s nodes in the note."""
+    tries = [(new, "")]
+    if _worse_widths(new, old):
+        spliced, kept = splice(new, old, log=log, what=f"{whose} node", margin=SPLICE_MARGIN)
+        if kept:
+            tries.append((spliced, f" ({whose} nodes kept at {len(kept)} of "
+                                   f"{len(new.width_values)})"))
+    return tries
+
+
 def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
     """``(fit, how)``, or, for a Smith variant (:func:`re_solved`) whose
     worst case is over the bound but under HOPELESS (no factor of the
@@ -278,13 +292,7 @@ def finish_halved(fit: M.Fit, how: str, log=print) -> tuple:
                                      albedo_weight=weight)
         if solved is None:
             return fit, how
-        tries = [(solved, "")]
-        if _worse_widths(solved, halved):
-            spliced, kept = splice(solved, halved, log=log, what="the halved fit's node",
-                                   margin=SPLICE_MARGIN)
-            if kept:
-                tries.append((spliced, f" (the halved fit's nodes kept at {len(kept)} of "
-                                       f"{len(solved.width_values)})"))
+        tries = _tries(solved, halved, "the halved fit's", log)
         for out, note in tries:
             worse = _worse_widths(out, halved)
             n = out.measured
@@ -333,13 +341,7 @@ def finish_moved(fit: M.Fit, how: str, log=print) -> tuple:
             moved = halve._kept(moved, level, stage,
                                 functools.partial(widths.move, moved, free, log=log, rise=rise),
                                 log)
-        tries = [(moved, "")]
-        if _worse_widths(moved, fit):
-            spliced, kept = splice(moved, fit, log=log, what="the fit's own node",
-                                   margin=SPLICE_MARGIN)
-            if kept:
-                tries.append((spliced, f" (its own nodes kept at {len(kept)} of "
-                                       f"{len(moved.width_values)})"))
+        tries = _tries(moved, fit, "its own", log)
         for out, note in tries:
             n = out.measured
             said = (f"{MOVED}{note} (a width may rise by {rise:g}): "
