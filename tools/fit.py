@@ -88,16 +88,18 @@ def collect(jobs=2, only=None):
     _redo(_choose, list(only) if only else keys, keys, jobs)
 
 
-def _finish(key, halving=False):
-    """One committed variant with :func:`fitting.assemble.finish` applied
-    (``halving``: and its width nodes halved, :mod:`fitting.halve`)."""
+def _finish(key, step="finish", **options):
+    """One committed variant with ``fitting.assemble.<step>`` applied
+    (:func:`fitting.assemble.finish`, ``halving=True``: and its width nodes
+    halved, :mod:`fitting.halve`; ``finish_moved``: its members' widths
+    moved, :mod:`fitting.widths`)."""
     from addon.core.fits import mixtures as data
     from fitting import assemble, halve, mixtures
-    halve.CACHE_DIR = CACHE  # the halving step's results kept: a run resumes
+    halve.CACHE_DIR = CACHE  # the steps' results kept: a run resumes
     fit = mixtures.load_fits([key])[key]
     fit.measured = mixtures.measure(fit)
-    out = assemble.finish(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True),
-                          halving=halving)
+    out = getattr(assemble, step)(fit, data.SHIPPED[key],
+                                  log=lambda msg: print(msg, flush=True), **options)
     print(f"{key}: ships {out[1]}: {out[0].measured['max_abs_over_peak_70']:.4f}", flush=True)
     return out
 
@@ -145,19 +147,6 @@ def derive(jobs=2, only=None):
     _redo(_derive, todo, [t.key for t in mixtures.targets()], jobs, committed=True)
 
 
-def _move(key):
-    """One committed variant with its members' widths moved where that
-    ships (:func:`fitting.assemble.finish_moved`)."""
-    from addon.core.fits import mixtures as data
-    from fitting import assemble, halve, mixtures
-    halve.CACHE_DIR = CACHE  # the step's result kept: a run resumes
-    fit = mixtures.load_fits([key])[key]
-    fit.measured = mixtures.measure(fit)
-    out = assemble.finish_moved(fit, data.SHIPPED[key], log=lambda msg: print(msg, flush=True))
-    print(f"{key}: ships {out[1]}: {out[0].measured['max_abs_over_peak_70']:.4f}", flush=True)
-    return out
-
-
 def move(jobs=2, only=None):
     """The committed module with the variants ``only`` (default: the
     Smith variants) given :func:`fitting.assemble.finish_moved`, the
@@ -165,7 +154,8 @@ def move(jobs=2, only=None):
     from fitting import assemble, mixtures
     targets = {t.key: t for t in mixtures.targets()}
     todo = only or [k for k, t in targets.items() if assemble.re_solved(t)]
-    _redo(_move, todo, list(targets), jobs, committed=True)
+    _redo(functools.partial(_finish, step="finish_moved"), todo, list(targets), jobs,
+          committed=True)
 
 
 def _check_committed(todo, keys):
