@@ -128,15 +128,20 @@ bench: $(STAMP)
 # those of them that were fitted again.  Last, the Smith variants in alpha
 # get their siblings in beta's fits, resampled, where that measures better
 # (fitting/reparam.py; 5-10 minutes; with ONLY, those named or whose
-# sibling is).  Not run by make fit: `python -m tools.fit --move --only KEY`,
-# which moves the members' widths node by node (fitting/widths.py); tried on
-# the two variants in HALVE, it shipped for neither (docs/verification.md).
+# sibling is).  Between the two, the step that moves the members' widths
+# node by node and then solves the series of the nodes around the worst
+# widths together (fitting/widths.py), for the variants in MOVE only: about
+# an hour and a half a variant; tried on both variants in HALVE, it ships for
+# Gaussian's (docs/verification.md).
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
 HALVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(HALVE)),$(HALVE))
+MOVE ?= microfacet/gaussian/smith/beta
+MOVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE)),$(MOVE))
 fit: $(STAMP)
 	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(HALVE_NOW)),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE_NOW),)
+	$(if $(strip $(MOVE_NOW)),$(PY) -m tools.fit --move --jobs $(JOBS) --only $(MOVE_NOW),)
 	$(PY) -m tools.fit --derive --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 
 clean:

@@ -33,7 +33,9 @@ default, takes 26 s to the same optimum), a minute or two a node.
 
 :func:`.assemble.finish_moved` runs it (SWEEPS sweeps, each over the
 nodes around the widths still over the level) and ships the result where
-it measures better by the halving step's rule (:func:`.assemble.better`).
+it measures better by the halving step's rule (:func:`.assemble.better`);
+where it does not, the moved fit with those nodes' series solved together
+(:mod:`.joint`), by the same rule.
 """
 
 from __future__ import annotations

@@ -953,3 +953,52 @@ def test_the_width_search_keeps_the_fitters_box_and_the_members_order():
     for m in moves:
         assert M.Z_MIN < m[0] < M.Z_MAX and m[1] <= m[2] - 0.05
     assert len(moves) == 3  # ggx down; the first beckmann down; the second up
+
+
+@pytest.mark.parametrize("moved, solved, ships, solves", [
+    # the moved fit ships by the rule: nothing solved together
+    ((0.030, [0.020, 0.030]), {}, "moved", []),
+    # the moved fit has a width worse by more than WIDTH_SLACK; solved
+    # together (rise RISE) it has none and is lower by 0.0025: that ships
+    ((0.030, [0.0230, 0.030]), {"rise": (0.0305, [0.020, 0.0305])}, "rise", ["rise"]),
+    # ... solved with RISE still worse at a width, with NO_RISE not: NO_RISE ships
+    ((0.030, [0.0230, 0.030]),
+     {"rise": (0.0300, [0.0230, 0.030]), "none": (0.0310, [0.020, 0.031])}, "none",
+     ["rise", "none"]),
+    # neither solve ships: the fit stays as it was
+    ((0.030, [0.0230, 0.030]),
+     {"rise": (0.0300, [0.0230, 0.030]), "none": (0.0320, [0.020, 0.032])}, None,
+     ["rise", "none"]),
+])
+def test_the_moved_fit_is_solved_together_where_it_does_not_ship(
+        monkeypatch, moved, solved, ships, solves):
+    """fitting/assemble.finish_moved: where the moved fit fails the rule
+    (a width worse by more than WIDTH_SLACK), its nodes' series are solved
+    together (:func:`fitting.joint.solve`), with RISE and then NO_RISE, and
+    each result measured by the same rule; the first that passes ships."""
+    from fitting import assemble, halve, joint, widths
+    key = "microfacet/gaussian/smith/beta"
+    target = {t.key: t for t in M.targets()}[key]
+    fit = _trade_fit(0.0330, 0.009, [0.020, 0.033], target=target)
+    made = {"moved": _trade_fit(*moved[:1], 0.009, moved[1], target=target)}
+    made.update({k: _trade_fit(v[0], 0.009, v[1], target=target) for k, v in solved.items()})
+    names = {joint.RISE: "rise", joint.NO_RISE: "none"}
+    calls = []
+
+    def solve(f, log=None, rise=None, level=None):
+        assert f is made["moved"]
+        calls.append(names[rise])
+        return made.get(names[rise])
+
+    monkeypatch.setattr(halve, "CACHE_DIR", None)
+    monkeypatch.setattr(widths, "move", lambda f, free, log=None, rise=None: made["moved"])
+    monkeypatch.setattr(joint, "region", lambda f, level=None: {0})
+    monkeypatch.setattr(joint, "solve", solve)
+    monkeypatch.setattr(assemble, "splice", lambda f, _h, **_k: (f, []))  # nothing put back
+    out, how = assemble.finish_moved(fit, "fitted", log=lambda _m: None)
+    assert calls[:len(solves)] == solves
+    if ships is None:
+        assert out is fit and how == "fitted"
+    else:
+        assert out is made[ships] and assemble.MOVED in how
+        assert (assemble.JOINT in how) == (ships != "moved")

@@ -17,9 +17,9 @@
   ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
   fit`` runs it for the variants in its HALVE);
 - ``--move``: the members' widths of the nodes around a Smith variant's
-  worst widths moved, each node's series solved again, where that ships
-  (:mod:`fitting.widths`; ``make fit`` does not run it: tried on the
-  variants in its HALVE, it shipped for neither).
+  worst widths moved, each node's series solved again, then those nodes'
+  series solved together, where that ships (:mod:`fitting.widths`; ``make
+  fit`` runs it for the variants in its MOVE).
 """
 
 from __future__ import annotations
@@ -239,7 +239,7 @@ def main(argv=None) -> int:
                         help="move the members' widths of the nodes around the worst widths of "
                              "the Smith variants still over the bound, each node's series solved "
                              "again, where that measures better (fitting/widths.py; --only: those "
-                             "variants; make fit does not run it)")
+                             "variants; make fit runs it for the variants in its MOVE)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
