@@ -327,10 +327,12 @@ def finish_moved(fit: M.Fit, how: str, log=print) -> tuple:
     worst widths solved together (:func:`_moved_and_solved`), each measured
     the same two ways; where that fails too, the search again with no
     width of a node's window allowed to rise up to 70 deg (as
-    :func:`finish_joint` solves again with NO_RISE).  The search sweeps widths.SWEEPS times, each
-    over the nodes around the widths still erring more than the level
-    (:func:`.joint.region`).  Run once: a fit whose ``how`` says it
-    was is left as it is."""
+    :func:`finish_joint` solves again with NO_RISE).  The search sweeps
+    widths.SWEEPS times, each over the nodes around the widths still
+    erring more than the level (:func:`.joint.region`).  Run once: a fit
+    whose ``how`` says it was is left as it is (a second round, one sweep
+    on what the first shipped, measured better and was not: it let the
+    error at the views with the lower peak grow, docs/verification.md)."""
     m = fit.measured
     aim = bound(fit.target)
     if MOVED in how or not re_solved(fit.target) \
