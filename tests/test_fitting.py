@@ -980,7 +980,7 @@ def test_the_moved_fit_is_solved_together_where_it_does_not_ship(
     key = "microfacet/gaussian/smith/beta"
     target = {t.key: t for t in M.targets()}[key]
     fit = _trade_fit(0.0330, 0.009, [0.020, 0.033], target=target)
-    made = {"moved": _trade_fit(*moved[:1], 0.009, moved[1], target=target)}
+    made = {"moved": _trade_fit(moved[0], 0.009, moved[1], target=target)}
     made.update({k: _trade_fit(v[0], 0.009, v[1], target=target) for k, v in solved.items()})
     names = {joint.RISE: "rise", joint.NO_RISE: "none"}
     calls = []
