@@ -31,8 +31,8 @@ Deterministic (HiGHS, fixed steps).  About four seconds a programme (the
 cutting planes started from every START-th row; every 8th, :mod:`.polish`'s
 default, takes 26 s to the same optimum), a minute or two a node.
 
-:func:`.assemble.finish_moved` runs it (SWEEPS sweeps, each over the
-nodes around the widths still over the level) and ships the result where
+:func:`.assemble.finish_moved` runs it (SWEEPS sweeps, or as many as
+it is given, each over the nodes around the widths still over the level) and ships the result where
 it measures better by the halving step's rule (:func:`.assemble.better`);
 where it does not, the moved fit with those nodes' series solved together
 (:mod:`.joint`), by the same rule.
@@ -50,7 +50,7 @@ from .joint import GRAZING_RISE, RISE
 from .polish import SampleCache
 
 STEPS = (0.1, 0.05)  # log-multiple moves tried, coarse then fine
-SWEEPS = 2           # assemble.finish_moved's sweeps, each over the nodes still erring most
+SWEEPS = 2           # assemble.finish_moved's default sweeps, each over the nodes erring most
 GAIN = 1e-4          # a move is taken where the node's window errs less by more than this
 START = 64           # the cutting planes start from every START-th row
 # the views the node's programme fits at: every 2.5 deg, half way between

@@ -147,15 +147,16 @@ def derive(jobs=2, only=None):
     _redo(_derive, todo, [t.key for t in mixtures.targets()], jobs, committed=True)
 
 
-def move(jobs=2, only=None):
+def move(jobs=2, only=None, sweeps=None):
     """The committed module with the variants ``only`` (default: the
-    Smith variants) given :func:`fitting.assemble.finish_moved`, the
-    others kept."""
-    from fitting import assemble, mixtures
+    Smith variants) given :func:`fitting.assemble.finish_moved` (``sweeps``
+    sweeps of moves; default :data:`fitting.widths.SWEEPS`), the others
+    kept."""
+    from fitting import assemble, mixtures, widths
     targets = {t.key: t for t in mixtures.targets()}
     todo = only or [k for k, t in targets.items() if assemble.re_solved(t)]
-    _redo(functools.partial(_finish, step="finish_moved"), todo, list(targets), jobs,
-          committed=True)
+    _redo(functools.partial(_finish, step="finish_moved", sweeps=sweeps or widths.SWEEPS),
+          todo, list(targets), jobs, committed=True)
 
 
 def _check_committed(todo, keys):
@@ -239,11 +240,17 @@ def main(argv=None) -> int:
                         help="move the members' widths of the nodes around the worst widths of "
                              "the Smith variants still over the bound, each node's series solved "
                              "again, where that measures better (fitting/widths.py; --only: those "
-                             "variants; make fit runs it for the variants in its MOVE)")
+                             "variants; make fit runs it for the variants in its MOVE, and "
+                             "with --sweeps 1 for those in its MOVE_ONCE)")
+    parser.add_argument("--sweeps", type=int, default=None,
+                        help="with --move: the sweeps of moves before the moved fit's series "
+                             "are solved together (default fitting.widths.SWEEPS, 2)")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
     args = parser.parse_args(argv)
+    if args.sweeps is not None and (not args.move or args.sweeps < 1):
+        parser.error(f"--sweeps goes with --move and is 1 or more, not {args.sweeps}")
     if args.collect:
         collect(args.jobs, args.only)
         return 0
@@ -251,7 +258,7 @@ def main(argv=None) -> int:
         derive(args.jobs, args.only)
         return 0
     if args.move:
-        move(args.jobs, args.only)
+        move(args.jobs, args.only, args.sweeps)
         return 0
     if args.finish:
         finish(args.jobs, args.only, halving=args.halve)
