@@ -249,7 +249,9 @@ def _fidelity_lines(model_id: str) -> list:
     lines = [FIDELITY_LEGEND]
     if model_id == "microfacet":
         lines += ["", "Any Fresnel (none, dielectric, conductor) rides on the microfacet "
-                  "members and has the status of its variant; Blender 4.5's conductor "
+                  "members; the table is without it: exact and near keep their status "
+                  "with it, a fitted variant is approx (the fits and their bound are for "
+                  "F = 1; measured up to 0.07 of the peak with it); Blender 4.5's conductor "
                   "closure is an older approximation (up to 8 % off).  Widths: half-angle "
                   "beta / native alpha / anisotropic alpha x, y.  Cycles clamps its "
                   "closures' alpha to 1: a native width (alpha, alpha x or y) over 1, or "
