@@ -883,8 +883,8 @@ def test_the_alpha_data_from_beta_ships_only_where_it_is_better(monkeypatch, new
 def test_a_width_move_is_judged_by_the_nodes_series_solved_again():
     """The premise of fitting/widths.py, on committed data (Blinn with
     separable Smith, its node at beta 57 deg put back at the widths it had
-    before the step moved them, Z_BEFORE, its series solved for them): with
-    the node's series solved for the widths (fitting.polish._solve_node,
+    before the step moved them, ``z_before``, its series solved for them):
+    with the node's series solved for the widths (fitting.polish._solve_node,
     its neighbours as they are), the second member's width moved down by
     exp(-0.1) lowers the node's window's error (lights to 70 deg, views
     between the measured ones) by more than 0.001 of the peak (0.0246 ->
