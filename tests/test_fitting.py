@@ -897,7 +897,7 @@ def test_a_width_move_is_judged_by_the_nodes_series_solved_again():
     key = "microfacet/blinn/smith/beta"
     committed = M.load_fits([key])[key]
     j, series, get = 20, committed.weight_series.copy(), SampleCache(committed.target)
-    z_before = np.array([-0.0794, -0.2162, 0.0743, -0.1429])  # the node before the step
+    z_before = np.array([-0.0794, -0.2162, 0.0743, -0.1429])  # before the step, to 4 digits
     _e, coef0, _n = widths._window(committed, committed.multipliers, series, j, z_before, get)
     assert coef0 is not None
     fit = M.Fit(committed.target, committed.width_values, committed.multipliers.copy(),
