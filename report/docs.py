@@ -86,7 +86,7 @@ def render_fits() -> str:
     for key in mixtures.FITS:
         m = mixtures.measured(key)
         beyond = f" (beyond α 1: {m['beyond_70']:.2f})" if m["beyond_70"] else ""
-        lines.append(f"| `{key}` | {m['max_abs_over_peak_70']:.3f}{beyond} | "
+        lines.append(f"| `{key}` | {mixtures.worst_text(key)}{beyond} | "
                      f"{m['max_abs_over_peak_85']:.3f} | {m['albedo_difference_70']:.3f} | "
                      f"{formulas.fit_status(key)} | {mixtures.shipped(key)} |")
     return "\n".join(lines)
@@ -285,7 +285,7 @@ def _fidelity_lines(model_id: str) -> list:
             beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "-"
             members = mixtures.members_text(k)
             lines.append(f"| `{k}` | {members} | "
-                         f"{m['max_abs_over_peak_70']:.3f} | {m['max_abs_over_peak_85']:.3f} | "
+                         f"{mixtures.worst_text(k)} | {m['max_abs_over_peak_85']:.3f} | "
                          f"{m['albedo_difference_70']:.3f} | {m['albedo_difference_85']:.3f} | "
                          f"{beyond} |")
     remains = REMAINS.get(model_id)

@@ -192,7 +192,7 @@ def fits_table_html():
         beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "—"
         members = mixtures.members_text(key)
         rows.append(f"<tr><td>{escape(key)}</td><td>{escape(members)}</td>"
-                    f"<td class=\"num\">{m['max_abs_over_peak_70']:.3f}</td>"
+                    f"<td class=\"num\">{mixtures.worst_text(key)}</td>"
                     f"<td class=\"num\">{m['max_abs_over_peak_85']:.3f}</td>"
                     f"<td class=\"num\">{m['albedo_difference_70']:.3f}</td>"
                     f"<td class=\"num\">{m['albedo_difference_85']:.3f}</td>"

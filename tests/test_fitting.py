@@ -1078,3 +1078,15 @@ def test_a_fitted_variant_holds_its_bound_at_held_out_widths_and_views(key):
             peak = max(peak, float(s.target[s.fit].max()))
         worst = max(worst, max(errors) / peak)
     assert np.isfinite(worst) and worst <= formulas.FIT_BOUND, (key, worst)
+
+
+@pytest.mark.parametrize("value, text", [(0.02495, "0.0249"), (0.0251, "0.0251"),
+                                         (0.025, "0.0250"), (0.0327, "0.033"),
+                                         (0.0220, "0.022")])
+def test_the_worst_case_is_never_shown_rounded_onto_the_bound(monkeypatch, value, text):
+    """addon.core.formulas.mixtures.worst_text, the README's, the model
+    pages' and the report's cell: near 0.025 four decimals, so a fitted
+    0.02495 does not read as the bound itself and 0.0251 not as within it."""
+    from addon.core.formulas import mixtures
+    monkeypatch.setattr(mixtures, "measured", lambda key: {"max_abs_over_peak_70": value})
+    assert mixtures.worst_text("any") == text

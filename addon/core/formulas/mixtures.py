@@ -63,6 +63,14 @@ def members_text(key: str) -> str:
     return members if how == "fitted" else f"{members} ({how})"
 
 
+def worst_text(key: str) -> str:
+    """The fitter's worst case up to 70 deg as the docs and the report show
+    it: three decimals, or four where three would round onto or over the
+    0.025 bound a fitted variant is within (0.02495 is "0.0249", not "0.025")."""
+    v = measured(key)["max_abs_over_peak_70"]
+    return f"{v:.4f}" if 0.0245 <= v <= 0.0255 else f"{v:.3f}"
+
+
 def width_variable(width: str, value):
     """The fit's width variable of a width parameter's value: beta itself,
     log alpha, log(1 + s)."""
