@@ -32,10 +32,11 @@ cutting planes started from every START-th row; every 8th, :mod:`.polish`'s
 default, takes 26 s to the same optimum), a minute or two a node.
 
 :func:`.assemble.finish_moved` runs it (SWEEPS sweeps, or as many as
-it is given, each over the nodes around the widths still over the level) and ships the result where
-it measures better by the halving step's rule (:func:`.assemble.better`);
-where it does not, the moved fit with those nodes' series solved together
-(:mod:`.joint`), by the same rule.
+it is given, each over the nodes around the widths still over the level)
+and ships the result where it measures better by the halving step's rule
+or comes within the bound with no width worse
+(:func:`.assemble._moved_ships`); where it does not, the moved fit with
+those nodes' series solved together (:mod:`.joint`), by the same rule.
 """
 
 from __future__ import annotations

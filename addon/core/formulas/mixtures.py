@@ -27,6 +27,7 @@ from ..fits import mixtures as _data
 from . import expr as E
 from .expr import clamp, closure_sum, div, exp, fmax, sqrt, table
 from .library import beckmann_m_from_beta, tr_alpha_from_beta
+from .models import FIT_BOUND
 
 FITS = _data.FITS
 # variants with no fitted width: a single lobe of their kind stands in
@@ -65,10 +66,10 @@ def members_text(key: str) -> str:
 
 def worst_text(key: str) -> str:
     """The fitter's worst case up to 70 deg as the docs and the report show
-    it: three decimals, or four where three would round onto or over the
-    0.025 bound a fitted variant is within (0.02495 is "0.0249", not "0.025")."""
+    it: three decimals, or four where three would read as the bound a
+    fitted variant is within (FIT_BOUND: 0.02495 is "0.0249", not "0.025")."""
     v = measured(key)["max_abs_over_peak_70"]
-    return f"{v:.4f}" if 0.0245 <= v <= 0.0255 else f"{v:.3f}"
+    return f"{v:.4f}" if f"{v:.3f}" == f"{FIT_BOUND:.3f}" else f"{v:.3f}"
 
 
 def width_variable(width: str, value):
