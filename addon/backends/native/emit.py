@@ -220,8 +220,12 @@ class Planner:
             return self.math("MINIMUM", self.math("MAXIMUM", self._r(a[0]), ("const", lo)),
                              ("const", hi))
         if op == "table":
-            t = self.math("MINIMUM", self.math("MAXIMUM", self._r(a[0]), ("const", 0.0)),
-                          ("const", 1.0))
+            src = self._r(a[0])
+            key = ("table_input", src)  # one clamp for the tables of one variable
+            if key not in self.separate:
+                self.separate[key] = self.math(
+                    "MINIMUM", self.math("MAXIMUM", src, ("const", 0.0)), ("const", 1.0))
+            t = self.separate[key]
             return self.node("ShaderNodeFloatCurve", {"curve": e.data},
                              {"Factor": ("const", 1.0), "Value": t})
         if op == "finite":
