@@ -134,7 +134,9 @@ bench: $(STAMP)
 # of moves) and MOVE_ONCE (one) only: about an hour and a half for
 # Gaussian's, longer for Blinn's (its joint solve alone took two hours on
 # one core); it ships for both, and each has the number of sweeps that
-# measured better (docs/verification.md).
+# measured better (docs/verification.md).  And Phong's mixture of Toon lobes
+# for Cycles' native nodes (fitting/toon.py; about 45 minutes on one core;
+# with ONLY, when it names phong), written to addon/core/fits/toon.py.
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
 HALVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(HALVE)),$(HALVE))
@@ -142,12 +144,14 @@ MOVE ?= microfacet/gaussian/smith/beta
 MOVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE)),$(MOVE))
 MOVE_ONCE ?= microfacet/blinn/smith/beta
 MOVE_ONCE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE_ONCE)),$(MOVE_ONCE))
+TOON_NOW = $(if $(ONLY),$(filter phong,$(ONLY)),phong)
 fit: $(STAMP)
 	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(HALVE_NOW)),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE_NOW),)
 	$(if $(strip $(MOVE_NOW)),$(PY) -m tools.fit --move --jobs $(JOBS) --only $(MOVE_NOW),)
 	$(if $(strip $(MOVE_ONCE_NOW)),$(PY) -m tools.fit --move --sweeps 1 --jobs $(JOBS) --only $(MOVE_ONCE_NOW),)
 	$(PY) -m tools.fit --derive --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
+	$(if $(strip $(TOON_NOW)),$(PY) -m tools.fit --toon,)
 
 clean:
 	rm -rf build dist .pytest_cache

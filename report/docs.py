@@ -89,6 +89,11 @@ def render_fits() -> str:
         lines.append(f"| `{key}` | {mixtures.worst_text(key)}{beyond} | "
                      f"{m['max_abs_over_peak_85']:.3f} | {m['albedo_difference_70']:.3f} | "
                      f"{formulas.fit_status(key)} | {mixtures.shipped(key)} |")
+    t = mixtures.toon_measured()
+    lines.append(f"| `phong`, native nodes in Cycles | {t['max_abs_over_peak_70']:.3f} | "
+                 f"{t['max_abs_over_peak_85']:.3f} | {t['albedo_difference_70']:.3f} | approx | "
+                 f"Toon glossy lobes and a diffuse one (fitting/toon.py); in EEVEE, which "
+                 f"renders the Toon BSDF as a diffuse one, the row above |")
     return "\n".join(lines)
 
 
@@ -337,6 +342,10 @@ def _remains_numbers() -> dict:
             "moved": ", ".join(f"`{k}` ({m(k):.3f})" for k in moved) if moved else "nowhere today",
             "beckmann_beta": f"{m('microfacet/beckmann/smith/beta'):.2f}",
             "blinn_phong": f"{m('blinn_phong'):.3f}",
+            "phong": f"{m('phong'):.3f}",
+            "phong_toon": f"{mixtures.toon_measured()['max_abs_over_peak_70']:.3f}",
+            "phong_toon_albedo": f"{mixtures.toon_measured()['albedo_difference_70']:.3f}",
+            "phong_band": _phong_band(),
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.3f}",
             "blinn_phong_joint": ("; then the weight series of the nodes around its worst "
                                   "widths were solved together, as for the Smith variants "
@@ -344,6 +353,18 @@ def _remains_numbers() -> dict:
                                   "variants' 0.002 in proportion to the 0.2): from 0.229 and "
                                   "an albedo off by 0.18"
                                   if JOINT in mixtures.shipped("blinn_phong") else "")}
+
+
+def _phong_band() -> str:
+    """Where Cycles renders Phong's Glossy mixture too, in words."""
+    import math
+
+    from addon.core.fits import toon
+    if toon.GLOSSY_BAND is None:
+        return ""
+    lo, hi = (math.expm1(x) for x in toon.GLOSSY_BAND)
+    return (f", or the Glossy mixture for s from {lo:.2f} to {hi:.2f}, where that measured "
+            f"better")
 
 
 REMAINS = {
@@ -425,6 +446,23 @@ REMAINS = {
         "hair reflection lobe has its own (Gaussian in the longitudinal angle) and no "
         "mixture of the available closures follows the light-dependent sin theta_L of the "
         "diffuse part.  The hybrid mode is exact."),
+    "phong": (
+        "OSL's phong_ramp closure is Phong's lobe, so the OSL output is exact.  The native "
+        "nodes have no such closure.  In Cycles (GPU devices, OSL off) they render a mixture "
+        "of three Toon BSDFs (Glossy: flat about the mirror direction out to its size, then "
+        "falling linearly over its smooth) and a diffuse one, fitted over the exponent and "
+        "the view (fitting/toon.py; data in addon/core/fits/toon.py){phong_band}: "
+        "{phong_toon} of the peak at worst (the widest lobes), the albedo within "
+        "{phong_toon_albedo}; it errs 0.26 at s = 1, 0.14 at s = 10, 0.06 at s = 100 and at "
+        "most 0.037 from s = 1000 on, where the Glossy mixture errs 0.29, 0.43, 0.34 and "
+        "0.13-0.18 (docs/verification.md).  A Toon lobe "
+        "has no cos theta_i, which Phong's rendered lobe has, so no mixture of them follows "
+        "a wide lobe seen obliquely: with the lobes free at every view, such a mixture errs "
+        "0.18 at s = 1, 0.12 at s = 10, 0.05 at s = 100 and 0.017 at s = 1000 (python -m "
+        "fitting.toon --floor).  EEVEE renders the Toon BSDF as a diffuse one, so the node "
+        "group switches (a Mix Shader whose factor is EEVEE's Shader to RGB, which Cycles "
+        "does not have): EEVEE renders the mixture of Glossy lobes about the normal "
+        "(half-vector lobes), which errs {phong} of the peak.  The hybrid mode is exact."),
     "blinn_phong": (
         "Blinn-Phong has no shadowing term: like G = 1, its ratio to every closure depends "
         "on the light direction.  The mixture (an Ashikhmin-Shirley lobe, whose (N.H)^n is "

@@ -197,6 +197,14 @@ def fits_table_html():
                     f"<td class=\"num\">{m['albedo_difference_70']:.3f}</td>"
                     f"<td class=\"num\">{m['albedo_difference_85']:.3f}</td>"
                     f"<td class=\"num\">{beyond}</td><td>{status}</td></tr>")
+    t = mixtures.toon_measured()
+    rows.append("<tr><td>phong, native nodes in Cycles (EEVEE: the row above)</td>"
+                "<td>glossy_toon, glossy_toon, glossy_toon, diffuse (fitting/toon.py)</td>"
+                f"<td class=\"num\">{t['max_abs_over_peak_70']:.3f}</td>"
+                f"<td class=\"num\">{t['max_abs_over_peak_85']:.3f}</td>"
+                f"<td class=\"num\">{t['albedo_difference_70']:.3f}</td>"
+                f"<td class=\"num\">{t['albedo_difference_85']:.3f}</td>"
+                "<td class=\"num\">—</td><td>approx</td></tr>")
     rows.append("</table>")
     return "\n".join(rows)
 

@@ -131,6 +131,31 @@ def test_the_phong_ramp_transcription_is_cycles_phong_ramp(bpy, exponent):
     assert want.max() > 0 and err.max() <= 1e-3
 
 
+@pytest.mark.parametrize("size,smooth", [(0.12, 0.2), (0.35, 0.5)])
+def test_the_glossy_toon_transcription_is_cycles_toon(bpy, size, smooth):
+    """Blender's Toon node, Glossy: a lobe about the mirror direction, flat
+    to size pi/2, linear to 0 over smooth pi/2 (fitting/toon.py)."""
+    from fitting import toon as T
+    from verification import harness as common
+
+    mat, tree, out = common.empty_material(f"toon_{size}_{smooth}")
+    node = tree.nodes.new("ShaderNodeBsdfToon")
+    node.component = "GLOSSY"
+    node.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    node.inputs["Size"].default_value = size
+    node.inputs["Smooth"].default_value = smooth
+    tree.links.new(node.outputs[0], out.inputs["Surface"])
+    g, img = _render(bpy, mat, osl=False)
+    want = T.glossy_toon(_local(g, g.wi[g.mask]), _local(g, g.wo[g.mask]), size, smooth)
+    got = img[g.mask][:, 0].astype(np.float64)
+    peak = float(want.max())
+    err = np.abs(got - want) / np.maximum(np.abs(want), 1e-3 * peak)
+    print(f"\ntoon {size} {smooth}: max rel {err.max():.2e} over {g.mask.sum()} px, "
+          f"{int(np.sum(want > 0))} in the lobe")
+    assert peak > 0 and np.sum(want > 0) > 50 and np.sum(want == 0) > 50
+    assert err.max() <= 1e-3
+
+
 # --------------------------------------------------------------------------
 # the committed data
 
@@ -1092,3 +1117,100 @@ def test_the_worst_case_is_never_shown_rounded_onto_the_bound(monkeypatch, value
     from addon.core.formulas import mixtures
     monkeypatch.setattr(mixtures, "measured", lambda key: {"max_abs_over_peak_70": value})
     assert mixtures.worst_text("any") == text
+
+
+# --------------------------------------------------------------------------
+# Phong's Toon mixture (Cycles' native nodes)
+
+def _toon_data():
+    from addon.core.fits import toon as data
+    return data
+
+
+def test_the_toon_mixture_is_the_fitters_output():
+    from fitting import toon as T
+    data = _toon_data()
+    assert data.FITTER == T.fitter_hash(), "the toon fitter changed since: run make fit"
+    assert tuple(data.MEMBERS) == T.MEMBERS
+    assert len(data.LOBES) == len(data.WEIGHTS) == T.N_NODES
+    assert data.FINGERPRINT == pytest.approx(T.fingerprint(), rel=1e-9, abs=1e-12), \
+        "the reference changed since the fit: run make fit"
+
+
+def test_the_shaders_toon_mixture_is_the_fitters():
+    """The expressions the native nodes are built from, folded at constant
+    widths and views, give the lobes and weights the fitter measured."""
+    from addon.core.formulas import mixtures as fm
+    from fitting import toon as T
+    fit = T.load()
+    rng = np.random.default_rng(3)
+    for value in [fit.values[0], fit.values[-1], *rng.uniform(fit.values[0], fit.values[-1], 5)]:
+        for c in (1.0, 0.7, 0.35, 0.05):
+            lobes, w = T.evaluate(fit, float(value), c)
+            got = fm.toon_members(float(value), c)
+            assert [m[0] for m in got] == list(T.MEMBERS)
+            for k, (_name, wk, size, smooth) in enumerate(got):
+                assert wk.is_const and wk.data == pytest.approx(w[k], rel=1e-9, abs=1e-12)
+                if k < T.N_TOON:
+                    assert size.data == pytest.approx(lobes[k][0], rel=1e-9)
+                    assert smooth.data == pytest.approx(lobes[k][1], rel=1e-9)
+
+
+def test_the_toon_weights_are_finite_and_non_negative_everywhere():
+    from fitting import toon as T
+    fit = T.load()
+    assert fit.measured["bad_weights"] == 0
+    for value in np.linspace(fit.values[0], fit.values[-1], 41):
+        for c in np.linspace(M.COS_VIEW_MIN, 1.0, 9):
+            lobes, w = T.evaluate(fit, float(value), float(c))
+            assert np.all(np.isfinite(w)) and np.all(w >= 0.0)
+            assert all(T.SIZE_MIN <= a <= 1.0 and 0.0 <= b <= 1.0 for a, b in lobes)
+
+
+def test_the_toon_data_is_within_what_the_fitter_recorded():
+    """At a width between two nodes and three views up to 70 deg: within
+    the error the fitter recorded (its own measurement, over more widths
+    and views), which is under the Glossy mixture's."""
+    from fitting import toon as T
+    fit = T.load()
+    value = float(0.37 * fit.values[5] + 0.63 * fit.values[6])
+    assert not T.in_band(value, fit.band)
+    r = T.rows(value)
+    worst = 0.0
+    for deg, _u, s in r.views:
+        if deg not in (0, 40, 65):
+            continue
+        lobes, w = T.evaluate(fit, value, float(s.wo[2]))
+        A, _alb = T._columns(s, lobes)
+        worst = max(worst, float(np.max(np.abs(A[s.fit] @ w - s.target[s.fit]))) / r.peak70)
+    recorded = fit.measured["max_abs_over_peak_70"]
+    print(f"\ntoon mixture at s = {math.expm1(value):.3g}: {worst:.4f} (recorded {recorded:.4f})")
+    assert 0.0 < worst <= recorded + 1e-9
+    assert recorded < _data().FITS["phong"]["measured"]["max_abs_over_peak_70"]
+
+
+def test_cycles_renders_the_better_of_the_toon_and_glossy_mixtures_at_every_width():
+    """What Cycles renders (the Toon mixture, the Glossy one in the data's
+    band) is no worse than the Glossy mixture, its stand-in, at widths the
+    band's choice was not made on (up to the band's grid: its ends lie half
+    way between two of its points, where the two differ by less than the
+    difference across one step); and the band holds the widths where the
+    Glossy mixture is better."""
+    from addon.core.formulas import mixtures as fm
+    from fitting import toon as T
+    fit = T.load()
+    toon, glossy = T.toon_mixture(fit), T.glossy_mixture()
+    lo, hi = fit.values[0], fit.values[-1]
+    rng = np.random.default_rng(11)
+    step = (fit.values[1] - fit.values[0]) / T.BAND_STEPS
+    widths = [*rng.uniform(lo, fit.values[3], 8), *rng.uniform(lo, hi, 6)]
+    for value in widths:
+        banded = T.in_band(value, fit.band)
+        assert fm.toon_glossy_band(value).data == (1.0 if banded else 0.0)
+        near_end = fit.band is not None and min(abs(value - e) for e in fit.band) < step
+        et, eg = T.width_measure(value, toon)[0], T.width_measure(value, glossy)[0]
+        shipped = eg if banded else et
+        print(f"s = {math.expm1(value):.4g}: toon {et:.4f}, glossy {eg:.4f}"
+              f"{' (band)' if banded else ''}")
+        if not near_end:
+            assert shipped <= eg + 1e-12 and shipped <= et + 1e-12

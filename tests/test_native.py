@@ -309,6 +309,104 @@ def test_a_mixture_plans_no_tangent_and_three_weights_per_vector_node(model, enu
     assert vector_steps >= 7  # degree 7 (8 coefficients): 7 steps
 
 
+def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee():
+    """Phong's BSDF output: a Mix Shader whose factor is the Alpha of Shader
+    to RGB of an emission (EEVEE: 1; Cycles drops the node, the factor
+    stays 0), the Toon mixture on its first input, the Glossy one on its
+    second (EEVEE renders the Toon BSDF as a diffuse one)."""
+    for norm in ("none", "energy"):
+        nodes, refs = _plan("phong", {"normalization": norm})
+        by_id = {n.id: n for n in nodes}
+        mix = by_id[refs["BSDF"][1]]
+        assert mix.type == "ShaderNodeMixShader"
+        # the exponent is a socket: the factor is the larger of EEVEE's 1 and
+        # the band where Cycles renders the Glossy mixture too
+        either = by_id[mix.inputs[0][1]]
+        assert either.type == "ShaderNodeMath" and either.props["operation"] == "MAXIMUM"
+        assert either.props["input_defaults"] == {0: 0.0}  # what Cycles keeps of the link
+        fac = by_id[either.inputs[0][1]]
+        assert fac.type == "ShaderNodeShaderToRGB" and either.inputs[0][2] == 1  # Alpha
+        assert by_id[fac.inputs[0][1]].type == "ShaderNodeEmission"
+
+        def closures(src):
+            seen, stack = set(), [src[1]]
+            while stack:
+                i = stack.pop()
+                if i not in seen:
+                    seen.add(i)
+                    stack += [x[1] for x in by_id[i].inputs.values() if x[0] == "link"]
+            return {by_id[i].type for i in seen}
+        cycles, eevee = closures(mix.inputs[1]), closures(mix.inputs[2])
+        assert "ShaderNodeBsdfToon" in cycles and "ShaderNodeBsdfGlossy" not in cycles
+        assert "ShaderNodeBsdfGlossy" in eevee and "ShaderNodeBsdfToon" not in eevee
+        assert all(n.props.get("component") == "GLOSSY" for n in nodes
+                   if n.type == "ShaderNodeBsdfToon")
+
+
+def test_native_phong_at_a_known_exponent_folds_the_band():
+    """An exponent known when the graph is made (a constant; Cycles folds a
+    socket's unlinked value the same way) decides the band there: in it,
+    the Glossy mixture alone; outside, the switch with EEVEE's factor."""
+    import math as m
+
+    from addon.core.fits import toon as data
+    from addon.core.formulas import expr as E
+    from addon.core.formulas import models as formulas
+
+    enums = {"normalization": "none"}
+    v = formulas.Values("phong", enums, known=True)
+    s = formulas.shading("phong", enums, caps=formulas.NATIVE_CLOSURES)
+    lo, hi = data.GLOSSY_BAND
+    for exponent, banded in ((m.expm1(0.5 * (lo + hi)), True), (20.0, False)):
+        v._cache["exponent"] = E.const(exponent)
+        g = formulas.FORMULAS["phong"].closure(v, s)
+        ops = {e.op for e in E.topological([g])}
+        assert ("engine_switch" not in ops) == banded, exponent
+
+
+@pytest.mark.parametrize("engine", ["cycles", "eevee"])
+def test_the_engine_switch_takes_its_engines_branch(bpy, engine):
+    """The switch as the planner makes it, rendered: an emission of 0.25 on
+    its Cycles input and of 0.75 on its EEVEE one (Cycles with OSL off, as
+    on a GPU)."""
+    from addon.backends.native import build as native_build
+    from addon.backends.native import emit
+
+    planner = emit.Planner()
+    planner.run({})  # a fresh plan, no outputs: the nodes below are all of it
+    glow = {level: planner.node("ShaderNodeEmission", {},
+                                {"Color": ("const", (level,) * 3), "Strength": ("const", 1.0)})
+            for level in (0.25, 0.75)}
+    switch = planner._engine_switch(glow[0.25], glow[0.75])
+    name = f"rm_engine_switch_{engine}"
+    scene = common.new_scene(name)
+    mat, tree, out = common.empty_material(name)
+    try:
+        if engine == "cycles":
+            common.configure_cycles(scene, samples=1, max_bounces=0, filter_width=0.01, osl=False)
+        else:
+            scene.render.engine = common.eevee_engine()
+            common.configure_eevee(scene)
+        common.set_linear_exr_output(scene, (8, 8))
+        common.set_world_background(scene, 0.0)
+        common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), 2.0, distance=10.0)
+        refs = native_build.Builder(tree, lambda _name: None).instantiate(
+            planner.nodes, {"BSDF": switch})
+        tree.links.new(refs["BSDF"], out.inputs["Surface"])
+        plane = bpy.data.meshes.new(name)
+        plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
+                          [(0, 1, 2, 3)])
+        plane.materials.append(mat)
+        scene.collection.objects.link(bpy.data.objects.new(name, plane))
+        img, _seconds = common.render_image(scene)
+    finally:
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+    want = 0.25 if engine == "cycles" else 0.75
+    # a flat emission: float32 in Cycles, half float in EEVEE (2^-11 relative)
+    assert np.allclose(img, want, rtol=1e-3, atol=0), (float(img.min()), float(img.max()))
+
+
 def test_an_anisotropic_closure_keeps_its_tangent():
     """Ward's anisotropic lobe: its widths differ, so its closure links the
     tangent and an anisotropy."""

@@ -265,6 +265,29 @@ def test_furnace_energy_bound(verify, api, model, params, variant):
     assert np.isfinite(r["mean_albedo"]).all()
 
 
+@pytest.mark.parametrize("exponent", [3.7, 140.0])
+def test_native_phong_in_cycles_holds_the_toon_mixtures_recorded_error(verify, api, exponent):
+    """Native Phong in Cycles with OSL off (the GPU devices' kernel code) at
+    exponents no report case uses: its Toon mixture on the gonio, views and
+    lights up to 70 deg, within what the fitter's measure gives at that
+    exponent over the hemisphere (views every 5 deg: the gonio's views lie
+    between them), itself within the error the data records."""
+    from addon.core.formulas import mixtures
+    from fitting import toon as T
+
+    fit = T.load()
+    value = math.log1p(exponent)
+    assert not T.in_band(value, fit.band)
+    bound = T.width_measure(value, T.toon_mixture(fit))[0]
+    assert bound <= mixtures.toon_measured()["max_abs_over_peak_70"]
+    case = cases_mod.Case("phong", {"exponent": exponent}, "held-out exponent")
+    r = _run(verify, api, case, "path_traced", "svm")
+    print(f"\nphong s = {exponent}: {r['max_abs_over_peak_fit_domain']:.4f} (the fitter's "
+          f"measure there {bound:.4f})")
+    assert r["finite"] and r["lit"]
+    assert r["max_abs_over_peak_fit_domain"] <= bound, r
+
+
 @pytest.mark.parametrize("params", [
     {"distribution": "gaussian", "shadowing": "smith_correlated", "beta": 1.2},
     {"distribution": "gaussian", "shadowing": "smith_correlated", "beta": 0.05},

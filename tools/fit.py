@@ -16,6 +16,9 @@
   :func:`fitting.assemble.finish`) applied to the committed module; with
   ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
   fit`` runs it for the variants in its HALVE);
+- ``--toon``: Phong's mixture of Toon glossy lobes for Cycles' native
+  nodes (:mod:`fitting.toon`; about 25 minutes on one core, kept in
+  build/fits);
 - ``--move``: the members' widths of the nodes around a Smith variant's
   worst widths moved, each node's series solved again, then those nodes'
   series solved together, where that ships (:mod:`fitting.widths`; ``make
@@ -159,6 +162,36 @@ def move(jobs=2, only=None, sweeps=None):
           todo, list(targets), jobs, committed=True)
 
 
+def toon():
+    """``addon/core/fits/toon.py`` (:mod:`fitting.toon`); the fit is kept in
+    build/fits under the fitter's hash."""
+    import pickle
+
+    from fitting import FITS
+    from fitting import toon as T
+    cached = CACHE / f"{T.fitter_hash()}-phong-toon.pickle"
+    if cached.exists():
+        print(f"phong toon: from {cached.relative_to(ROOT)}", flush=True)
+        fit = pickle.loads(cached.read_bytes())
+        if "band" not in vars(fit):  # kept before the fit chose a band
+            fit.band = T.glossy_band(fit, log=lambda msg: print(msg, flush=True))
+            fit.measured = T.measure(fit, fit.band)
+            cached.write_bytes(pickle.dumps(fit))
+    else:
+        t0 = time.perf_counter()
+        fit = T.fit(log=lambda msg: print(msg, flush=True))
+        CACHE.mkdir(parents=True, exist_ok=True)
+        cached.write_bytes(pickle.dumps(fit))
+        m = fit.measured
+        print(f"phong toon: max |d|/peak {m['max_abs_over_peak_70']:.4f} (70 deg), "
+              f"{m['max_abs_over_peak_85']:.4f} (85 deg), albedo "
+              f"{m['albedo_difference_70']:.4f} ({m['albedo_difference_85']:.4f}), "
+              f"{time.perf_counter() - t0:.0f} s", flush=True)
+    path = FITS / "toon.py"
+    path.write_text(T.module_text(fit))
+    print(f"wrote {path.relative_to(ROOT)}")
+
+
 def _check_committed(todo, keys):
     """Exit unless the committed module comes from this fitter (so its other
     variants can be kept) and ``todo`` are variants."""
@@ -245,12 +278,18 @@ def main(argv=None) -> int:
     parser.add_argument("--sweeps", type=int, default=None,
                         help="with --move: the sweeps of moves before the moved fit's series "
                              "are solved together (default fitting.widths.SWEEPS, 2)")
+    parser.add_argument("--toon", action="store_true",
+                        help="fit Phong's mixture of Toon glossy lobes for Cycles' native nodes "
+                             "(fitting/toon.py) and write addon/core/fits/toon.py")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
     args = parser.parse_args(argv)
     if args.sweeps is not None and (not args.move or args.sweeps < 1):
         parser.error(f"--sweeps goes with --move and is 1 or more, not {args.sweeps}")
+    if args.toon:
+        toon()
+        return 0
     if args.collect:
         collect(args.jobs, args.only)
         return 0

@@ -128,6 +128,9 @@ class Builder:
             for prop, value in n.props.items():
                 if prop == "curve":
                     _set_curve(node, value)
+                elif prop == "input_defaults":  # kept where a link is dropped
+                    for key, default in value.items():
+                        set_constant(_socket(node.inputs, key), default)
                 else:
                     setattr(node, prop, value)
             if n.label:

@@ -25,7 +25,10 @@ and power); the few that have no node are composed:
   false self-hits on a quad's diagonal, and on the face itself for a light
   behind it); in Blender 4.5, which has no Raycast node, nothing is
   occluded;
-- closures: Diffuse, Glossy (GGX, Beckmann, Ashikhmin-Shirley; roughness
+- ``engine_switch(cycles, eevee)``: a Mix Shader whose factor is the Alpha
+  of Shader to RGB of an emission (1 in EEVEE; Cycles drops the node and
+  the factor keeps its socket's value, 0);
+- closures: Diffuse, Toon (glossy), Glossy (GGX, Beckmann, Ashikhmin-Shirley; roughness
   sqrt(alpha), anisotropy from the ratio), Hair (reflection) with their
   colour as the weight; the Metallic BSDF (physical conductor) has no colour
   input, so its weight is a Mix Shader, and a coloured weight takes one
@@ -272,6 +275,8 @@ class Planner:
             for r in refs[1:]:
                 acc = self.node("ShaderNodeAddShader", {}, {0: acc, 1: r})
             return acc
+        if op == "engine_switch":
+            return self._engine_switch(*(self._r(x) for x in a))
         if op == "choose":
             raise ValueError("choose() reached the native backend: the variant must be known")
         raise ValueError(f"no native form for {op!r}")
@@ -284,6 +289,23 @@ class Planner:
         if key not in self.separate:
             self.separate[key] = self.node("ShaderNodeCombineXYZ", {}, {0: f, 1: f, 2: f})
         return self.separate[key]
+
+    def _engine_switch(self, cycles, eevee, both=("const", 0.0)):
+        """A Mix Shader: its factor is the Alpha of Shader to RGB of a white
+        emission, 1 in EEVEE (or ``both``, where it is 1); Cycles has no
+        Shader to RGB node, drops the link and leaves the input at its
+        socket's value, set to 0 here (measured in Cycles SVM and EEVEE,
+        Blender 4.5 and 5.2)."""
+        probe = self.node("ShaderNodeEmission", {}, {"Color": ("const", (1.0, 1.0, 1.0)),
+                                                     "Strength": ("const", 1.0)})
+        is_eevee = self.node("ShaderNodeShaderToRGB", {}, {0: probe}, out=1)
+        fac, defaults = is_eevee, {0: 0.0}
+        if both != ("const", 0.0):
+            fac = self.node("ShaderNodeMath", {"operation": "MAXIMUM", "input_defaults": {0: 0.0}},
+                            {0: is_eevee, 1: both})
+            defaults = {}
+        return self.node("ShaderNodeMixShader", {"input_defaults": defaults} if defaults else {},
+                         {0: fac, 1: cycles, 2: eevee}, label="Cycles | EEVEE")
 
     # -- closures -----------------------------------------------------------------
     def _roughness(self, ax, ay):
@@ -311,6 +333,10 @@ class Planner:
         args = [None if isotropic and i == 1 else self._r(x) for i, x in enumerate(e.args[1:])]
         if name == "diffuse":
             return self.node("ShaderNodeBsdfDiffuse", {}, {"Color": w, "Normal": args[0]})
+        if name == "glossy_toon":
+            n, size, smooth = args
+            return self.node("ShaderNodeBsdfToon", {"component": "GLOSSY"},
+                             {"Color": w, "Size": size, "Smooth": smooth, "Normal": n})
         if name in ("microfacet", "ashikhmin_shirley"):
             n, t, ax, ay = args
             dist = "ASHIKHMIN_SHIRLEY" if name == "ashikhmin_shirley" else \

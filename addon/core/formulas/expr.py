@@ -673,6 +673,21 @@ def closure(name: str, weight, *args, **params) -> Expr:
                  (name, tuple(sorted(params.items()))))
 
 
+def engine_switch(cycles, eevee, eevee_in_cycles=0.0) -> Expr:
+    """The closure ``cycles`` in Cycles and ``eevee`` in EEVEE, for a
+    closure EEVEE renders as another (its Toon BSDF is a diffuse one); where
+    the float ``eevee_in_cycles`` (0 or 1) is 1, ``eevee`` in Cycles too.
+    Only the native nodes offer it (a Mix Shader whose factor is EEVEE's
+    Shader to RGB of an emission, 1 in EEVEE, or ``eevee_in_cycles``; in
+    Cycles, which has no Shader to RGB node, that input's own value, 0)."""
+    cycles, eevee, both = wrap(cycles), wrap(eevee), wrap(eevee_in_cycles)
+    if cycles.kind != "c" or eevee.kind != "c" or both.kind != "f":
+        raise TypeError("engine_switch takes two closures and a float")
+    if _c(both) == 1.0:
+        return eevee
+    return _make("engine_switch", (cycles, eevee, both), "c")
+
+
 def closure_sum(*terms) -> Expr:
     terms = [t for t in terms if t is not None]
     if not terms:

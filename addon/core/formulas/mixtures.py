@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from ..fits import mixtures as _data
+from ..fits import toon as _toon
 from . import expr as E
 from .expr import clamp, closure_sum, div, exp, fmax, sqrt, table
 from .library import beckmann_m_from_beta, tr_alpha_from_beta
@@ -42,6 +43,12 @@ def has(key: str) -> bool:
 
 def measured(key: str) -> dict:
     return dict(FITS[key]["measured"])
+
+
+def toon_measured() -> dict:
+    """What Phong's Toon mixture (Cycles' native nodes) measured: the keys
+    of :func:`measured`."""
+    return dict(_toon.MEASURED)
 
 
 def shipped(key: str) -> str:
@@ -112,6 +119,19 @@ def members(key: str, x, cos_o):
     tu = view_variable(cos_o)
     eq = equivalent_alpha(d["equivalent"], xc)
     mult, weights = d["multipliers"], d["weights"]  # (n, K), (n, K, n_view)
+    w = _weights(weights, len(d["members"]), t, tu)
+    out = []
+    for k, name in enumerate(d["members"]):
+        z = table([row[k] for row in mult], t)
+        alpha = clamp(eq * exp(z), ALPHA_MIN, ALPHA_MAX)
+        out.append((name, w[k], alpha))
+    return out
+
+
+def _weights(weights, K, t, tu):
+    """The K members' weights at the table variable ``t`` and the view
+    variable ``tu``: ``weights`` (n, K, n_view) are each node's Chebyshev
+    series."""
     # each node's series as a polynomial in the view variable: a_j = sum_m
     # P[j][m] c_m, and the tables are linear in their values, so a table of
     # the a_j is that sum of the c_m's tables
@@ -125,7 +145,6 @@ def members(key: str, x, cos_o):
     # Horner's rule, one product and sum (one Multiply Add node) a degree
     # (Clenshaw's recurrence for the Chebyshev series takes two), three
     # members at a time as one vector (a last one or two alone)
-    K = len(d["members"])
     w = []
     for k0 in range(0, K, 3):
         group = range(k0, min(k0 + 3, K))
@@ -136,12 +155,47 @@ def members(key: str, x, cos_o):
         series = fmax(horner([E.pack(*(coefficient(k, j) for k in group))
                               for j in range(len(power))], tu), 0.0)
         w += [series[i] for i in range(3)]
+    return w
+
+
+def toon_members(x, cos_o):
+    """``[(closure name, weight, size, smooth)]`` of Phong's Toon mixture
+    (``addon/core/fits/toon.py``, made by ``fitting/toon.py``) at width
+    variable ``x`` = log(1 + s) and view cosine ``cos_o``: the Toon lobes'
+    log size and log smooth and the weights' series linear between the
+    nodes, the series summed by Horner's rule as in :func:`members`."""
+    lo, hi = _toon.DOMAIN
+    t = (clamp(E.wrap(x), lo, hi) - lo) * (1.0 / (hi - lo))
+    w = _weights(_toon.WEIGHTS, len(_toon.MEMBERS), t, view_variable(cos_o))
     out = []
-    for k, name in enumerate(d["members"]):
-        z = table([row[k] for row in mult], t)
-        alpha = clamp(eq * exp(z), ALPHA_MIN, ALPHA_MAX)
-        out.append((name, w[k], alpha))
+    for k, name in enumerate(_toon.MEMBERS):
+        if name == "diffuse":
+            out.append((name, w[k], None, None))
+            continue
+        size = clamp(exp(table([row[k][0] for row in _toon.LOBES], t)), TOON_SIZE_MIN, 1.0)
+        smooth = clamp(exp(table([row[k][1] for row in _toon.LOBES], t)), 0.0, 1.0)
+        out.append((name, w[k], size, smooth))
     return out
+
+
+TOON_SIZE_MIN = 1e-5  # Cycles clamps the Toon BSDF's size to [1e-5, 1]
+
+
+def toon_glossy_band(x):
+    """1 where Cycles renders Phong's Glossy mixture too (where it measured
+    better than the Toon one: ``GLOSSY_BAND`` of the data, in log(1 + s)),
+    else 0; a constant where ``x`` is one."""
+    band = _toon.GLOSSY_BAND
+    if band is None:
+        return E.const(0.0)
+    x = E.wrap(x)
+    return E.lt(x, band[1]) * E.ge(x, band[0])
+
+
+def toon_mixture(x, cos_o, member):
+    """Phong's Toon mixture: ``member(name, weight, size, smooth)`` builds
+    each member's closure."""
+    return closure_sum(*(member(*m) for m in toon_members(x, cos_o)))
 
 
 def power_coefficients(n: int) -> list:
@@ -183,4 +237,5 @@ def nodes(key: str) -> list:
 
 
 __all__ = ["FITS", "NOT_FITTED", "SHIPPED", "has", "measured", "members", "members_text",
-           "mixture", "nodes", "shipped", "width_variable"]
+           "mixture", "nodes", "shipped", "toon_measured", "toon_members", "toon_mixture",
+           "width_variable"]

@@ -94,8 +94,10 @@ def _upper(ci, co):
 ALL_CLOSURES = frozenset({"diffuse", "phong_ramp", "microfacet", "dielectric", "conductor",
                           "hair_reflection", "ashikhmin_shirley"})
 # What native nodes offer: no Phong lobe, and dielectric Fresnel only as a
-# conductor of extinction 0 (the Metallic BSDF, one closure for a coloured IOR)
-NATIVE_CLOSURES = ALL_CLOSURES - {"phong_ramp", "dielectric"}
+# conductor of extinction 0 (the Metallic BSDF, one closure for a coloured
+# IOR); the Toon BSDF's glossy lobe, which EEVEE renders as a diffuse one,
+# behind a switch between the engines (expr.engine_switch)
+NATIVE_CLOSURES = (ALL_CLOSURES - {"phong_ramp", "dielectric"}) | {"glossy_toon"}
 
 
 def per_choice(enum, build):
@@ -182,8 +184,23 @@ class Phong(Formula):
             weight = v.p("ks") * (self._norm(v, se) * div(2.0 * PI, se + 2.0))
             return closure("phong_ramp", weight, s.n, se)
         # Fitted: no Phong lobe in the backend (native nodes); a mixture fitted
-        # to the lecture's form, times the normalisation.
-        return _fitted_lobes("phong", E.log(1.0 + se), s, v.p("ks") * self._norm(v, se))
+        # to the lecture's form, times the normalisation: of Toon lobes (round
+        # about the mirror direction) in Cycles, of Glossy lobes in EEVEE,
+        # which renders the Toon BSDF as a diffuse one.
+        x, weight = E.log(1.0 + se), v.p("ks") * self._norm(v, se)
+        lobes = _fitted_lobes("phong", x, s, weight)
+        if "glossy_toon" not in (s.caps or ALL_CLOSURES):
+            return lobes
+        from . import mixtures
+
+        def toon(name, w, size, smooth):
+            if name == "diffuse":
+                return closure("diffuse", E.scaled(weight, w), s.n)
+            return closure("glossy_toon", E.scaled(weight, w), s.n, size, smooth)
+        # where the Glossy mixture measured better (the widest lobes), Cycles
+        # renders it too
+        return E.engine_switch(mixtures.toon_mixture(x, _cos_o(s), toon), lobes,
+                               mixtures.toon_glossy_band(x))
 
     def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return "exact" if "phong_ramp" in caps else fit_status("phong")
