@@ -92,9 +92,16 @@ def render_fits() -> str:
     t = mixtures.toon_measured()
     lines.append(f"| `phong`, native nodes in Cycles | {t['max_abs_over_peak_70']:.3f} | "
                  f"{t['max_abs_over_peak_85']:.3f} | {t['albedo_difference_70']:.3f} | approx | "
-                 f"Toon glossy lobes and a diffuse one (fitting/toon.py); in EEVEE, which "
-                 f"renders the Toon BSDF as a diffuse one, the row above |")
+                 f"Toon glossy lobes and a diffuse one (fitting/toon.py){_toon_band_words()}; "
+                 f"in EEVEE, which renders the Toon BSDF as a diffuse one, the row above |")
     return "\n".join(lines)
+
+
+def _toon_band_words() -> str:
+    """Where Cycles renders Phong's Glossy mixture too, for a table cell."""
+    from addon.core.formulas import mixtures
+    band = mixtures.toon_band_exponents()
+    return "" if band is None else f", the row above for s {band[0]:.2f}-{band[1]:.2f}"
 
 
 def _between(text, begin, end, body):
@@ -357,12 +364,11 @@ def _remains_numbers() -> dict:
 
 def _phong_band() -> str:
     """Where Cycles renders Phong's Glossy mixture too, in words."""
-    import math
-
-    from addon.core.fits import toon
-    if toon.GLOSSY_BAND is None:
+    from addon.core.formulas import mixtures
+    band = mixtures.toon_band_exponents()
+    if band is None:
         return ""
-    lo, hi = (math.expm1(x) for x in toon.GLOSSY_BAND)
+    lo, hi = band
     return (f", or the Glossy mixture for s from {lo:.2f} to {hi:.2f}, where that measured "
             f"better")
 

@@ -192,6 +192,13 @@ def toon_glossy_band(x):
     return E.lt(x, band[1]) * E.ge(x, band[0])
 
 
+def toon_band_exponents():
+    """``(s from, s to)`` where Cycles renders Phong's Glossy mixture too,
+    or None."""
+    band = _toon.GLOSSY_BAND
+    return None if band is None else (math.expm1(band[0]), math.expm1(band[1]))
+
+
 def toon_mixture(x, cos_o, member):
     """Phong's Toon mixture: ``member(name, weight, size, smooth)`` builds
     each member's closure."""
