@@ -40,27 +40,34 @@ sys.path.insert(0, str(ROOT))
 CACHE = ROOT / "build" / "fits"
 
 
-def _fit(key):
-    """One variant's fit; kept in build/fits under the fitter's hash, so an
-    interrupted run resumes where it stopped."""
+def _kept(cached, label, make, extra=None):
+    """``make()``, a fit, kept in build/fits as ``cached`` (named by its
+    fitter's hash, so an interrupted run resumes where it stopped);
+    ``extra(measured)``: more words for its summary line."""
     import pickle
 
-    from fitting import mixtures
-    target = {t.key: t for t in mixtures.targets()}[key]
-    cached = CACHE / f"{mixtures.fitter_hash()}-{key.replace('/', '-')}.pickle"
     if cached.exists():
-        print(f"{key}: from {cached.relative_to(ROOT)}", flush=True)
+        print(f"{label}: from {cached.relative_to(ROOT)}", flush=True)
         return pickle.loads(cached.read_bytes())
     t0 = time.perf_counter()
-    fit = mixtures.fit_variant(target, log=lambda msg: print(msg, flush=True))
+    fit = make()
     CACHE.mkdir(parents=True, exist_ok=True)
     cached.write_bytes(pickle.dumps(fit))
     m = fit.measured
-    print(f"{key}: max |d|/peak {m['max_abs_over_peak_70']:.4f} (70 deg), "
+    print(f"{label}: max |d|/peak {m['max_abs_over_peak_70']:.4f} (70 deg), "
           f"{m['max_abs_over_peak_85']:.4f} (85 deg), albedo {m['albedo_difference_70']:.4f} "
-          f"({m['albedo_difference_85']:.4f}), beyond alpha 1 {m['beyond_70']:.4f}, "
+          f"({m['albedo_difference_85']:.4f}){extra(m) if extra else ''}, "
           f"{time.perf_counter() - t0:.0f} s", flush=True)
     return fit
+
+
+def _fit(key):
+    """One variant's fit (:func:`_kept`)."""
+    from fitting import mixtures
+    target = {t.key: t for t in mixtures.targets()}[key]
+    return _kept(CACHE / f"{mixtures.fitter_hash()}-{key.replace('/', '-')}.pickle", key,
+                 lambda: mixtures.fit_variant(target, log=lambda msg: print(msg, flush=True)),
+                 extra=lambda m: f", beyond alpha 1 {m['beyond_70']:.4f}")
 
 
 def _choose(key):
@@ -163,30 +170,12 @@ def move(jobs=2, only=None, sweeps=None):
 
 
 def toon():
-    """``addon/core/fits/toon.py`` (:mod:`fitting.toon`); the fit is kept in
-    build/fits under the fitter's hash."""
-    import pickle
-
+    """``addon/core/fits/toon.py`` (:mod:`fitting.toon`; the fit kept by
+    :func:`_kept`)."""
     from fitting import FITS
     from fitting import toon as T
-    cached = CACHE / f"{T.fitter_hash()}-phong-toon.pickle"
-    if cached.exists():
-        print(f"phong toon: from {cached.relative_to(ROOT)}", flush=True)
-        fit = pickle.loads(cached.read_bytes())
-        if "band" not in vars(fit):  # kept before the fit chose a band
-            fit.band = T.glossy_band(fit, log=lambda msg: print(msg, flush=True))
-            fit.measured = T.measure(fit, fit.band)
-            cached.write_bytes(pickle.dumps(fit))
-    else:
-        t0 = time.perf_counter()
-        fit = T.fit(log=lambda msg: print(msg, flush=True))
-        CACHE.mkdir(parents=True, exist_ok=True)
-        cached.write_bytes(pickle.dumps(fit))
-        m = fit.measured
-        print(f"phong toon: max |d|/peak {m['max_abs_over_peak_70']:.4f} (70 deg), "
-              f"{m['max_abs_over_peak_85']:.4f} (85 deg), albedo "
-              f"{m['albedo_difference_70']:.4f} ({m['albedo_difference_85']:.4f}), "
-              f"{time.perf_counter() - t0:.0f} s", flush=True)
+    fit = _kept(CACHE / f"{T.fitter_hash()}-phong-toon.pickle", "phong toon",
+                lambda: T.fit(log=lambda msg: print(msg, flush=True)))
     path = FITS / "toon.py"
     path.write_text(T.module_text(fit))
     print(f"wrote {path.relative_to(ROOT)}")
