@@ -100,8 +100,8 @@ def render_fits() -> str:
 def _toon_band_words() -> str:
     """Where Cycles renders Phong's Glossy mixture too, for a table cell."""
     from addon.core.formulas import mixtures
-    band = mixtures.toon_band_exponents()
-    return "" if band is None else f", the row above for s {band[0]:.2f}-{band[1]:.2f}"
+    band = mixtures.toon_band_text()
+    return "" if band is None else f", the row above for s {band}"
 
 
 def _between(text, begin, end, body):
@@ -365,12 +365,9 @@ def _remains_numbers() -> dict:
 def _phong_band() -> str:
     """Where Cycles renders Phong's Glossy mixture too, in words."""
     from addon.core.formulas import mixtures
-    band = mixtures.toon_band_exponents()
-    if band is None:
-        return ""
-    lo, hi = band
-    return (f", or the Glossy mixture for s from {lo:.2f} to {hi:.2f}, where that measured "
-            f"better")
+    band = mixtures.toon_band_text()
+    return ("" if band is None else
+            f", or the Glossy mixture for s {band}, where that measured better")
 
 
 REMAINS = {

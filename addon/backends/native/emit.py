@@ -299,12 +299,10 @@ class Planner:
         probe = self.node("ShaderNodeEmission", {}, {"Color": ("const", (1.0, 1.0, 1.0)),
                                                      "Strength": ("const", 1.0)})
         is_eevee = self.node("ShaderNodeShaderToRGB", {}, {0: probe}, out=1)
-        fac, defaults = is_eevee, {0: 0.0}
-        if both != ("const", 0.0):
-            fac = self.node("ShaderNodeMath", {"operation": "MAXIMUM", "input_defaults": {0: 0.0}},
-                            {0: is_eevee, 1: both})
-            defaults = {}
-        return self.node("ShaderNodeMixShader", {"input_defaults": defaults} if defaults else {},
+        fac = is_eevee if both == ("const", 0.0) else self.node(
+            "ShaderNodeMath", {"operation": "MAXIMUM", "input_defaults": {0: 0.0}},
+            {0: is_eevee, 1: both})
+        return self.node("ShaderNodeMixShader", {"input_defaults": {0: 0.0}},
                          {0: fac, 1: cycles, 2: eevee}, label="Cycles | EEVEE")
 
     # -- closures -----------------------------------------------------------------

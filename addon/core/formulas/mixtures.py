@@ -192,11 +192,11 @@ def toon_glossy_band(x):
     return E.lt(x, band[1]) * E.ge(x, band[0])
 
 
-def toon_band_exponents():
-    """``(s from, s to)`` where Cycles renders Phong's Glossy mixture too,
-    or None."""
+def toon_band_text():
+    """The exponents where Cycles renders Phong's Glossy mixture too, as the
+    docs and the report write them ("0.21-0.78"), or None."""
     band = _toon.GLOSSY_BAND
-    return None if band is None else (math.expm1(band[0]), math.expm1(band[1]))
+    return None if band is None else f"{math.expm1(band[0]):.2f}-{math.expm1(band[1]):.2f}"
 
 
 def toon_mixture(x, cos_o, member):
