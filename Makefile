@@ -135,7 +135,7 @@ bench: $(STAMP)
 # Gaussian's, longer for Blinn's (its joint solve alone took two hours on
 # one core); it ships for both, and each has the number of sweeps that
 # measured better (docs/verification.md).  And Phong's mixture of Toon lobes
-# for Cycles' native nodes (fitting/toon.py; about 45 minutes on one core;
+# for Cycles' native nodes (fitting/toon.py; about 40 minutes, mostly on one core;
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
@@ -151,7 +151,7 @@ fit: $(STAMP)
 	$(if $(strip $(MOVE_NOW)),$(PY) -m tools.fit --move --jobs $(JOBS) --only $(MOVE_NOW),)
 	$(if $(strip $(MOVE_ONCE_NOW)),$(PY) -m tools.fit --move --sweeps 1 --jobs $(JOBS) --only $(MOVE_ONCE_NOW),)
 	$(PY) -m tools.fit --derive --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
-	$(if $(strip $(TOON_NOW)),$(PY) -m tools.fit --toon,)
+	$(if $(strip $(TOON_NOW)),$(PY) -m tools.fit --toon --jobs $(JOBS),)
 
 clean:
 	rm -rf build dist .pytest_cache

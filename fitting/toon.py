@@ -19,7 +19,9 @@ views), and a diffuse member (cos(theta_i)/pi) takes part of that.
 The fit: at evenly spaced nodes of log(1 + s), narrow to wide, three Toon
 lobes' sizes and smooths (shared by every view: the lobe's shape in psi
 does not depend on the view) are chosen by Nelder-Mead, each node starting
-from its narrower neighbour's; for given lobes, the members' weights, each
+from its narrower neighbour's (the narrowest from the better of two
+starts, one of them the lobes that carry most of :func:`floor`'s
+mixtures); for given lobes, the members' weights, each
 a Chebyshev series of degree N_VIEW - 1 in the view variable of
 :mod:`fitting.mixtures`, are one linear programme over every view at once
 (every 5 deg up to 70: the largest |mixture - model| over the peak, lights
@@ -242,9 +244,20 @@ class Fit:
     node_errors: np.ndarray   # (n,)
     measured: dict = field(default_factory=dict)
     band: tuple = None        # (lo, hi) in log(1 + s): the Glossy mixture there
+    glossy: str = None        # glossy_digest() of what band and measured were made against
+    at_nodes: tuple = None    # ((s, Toon e70, Glossy e70, floors), ...) at each node
 
 
-def fit(log=print) -> Fit:
+def fit(log=print, jobs=1) -> Fit:
+    """Narrow to wide, each node by Nelder-Mead from its narrower
+    neighbour's lobes (scaled by the change of the half width), so that the
+    lobes interpolated between the nodes stay near both; the narrowest from
+    two starts, :func:`start_for` and :func:`floor_start`, the better kept
+    (``jobs``: processes for the two).  (Every node from both starts was
+    tried: where the floor's start won, the lobes jumped between the nodes
+    and the widths between them erred up to 0.70; docs/verification.md.)"""
+    from concurrent.futures import ProcessPoolExecutor
+
     lo, hi = target().domain
     values = np.linspace(lo, hi, N_NODES)
     n = len(values)
@@ -253,18 +266,38 @@ def fit(log=print) -> Fit:
     errors = np.zeros(n)
     z = start_for(values[-1])
     previous = None
-    for i in range(n - 1, -1, -1):
-        r = rows(float(values[i]))
-        if i < n - 1:  # the neighbour's lobes, scaled by the change of the half width
-            previous = (rows(0.5 * float(values[i] + values[i + 1])), z, series[i + 1])
-            z = z + (start_for(values[i]) - start_for(values[i + 1]))
-        z, s, e = fit_node(r, z, previous=previous)
-        lobes[i], series[i], errors[i] = z.reshape(N_TOON, 2), s, e
-        log(f"phong toon: node {i} s = {math.expm1(values[i]):.4g}: {e:.4f} "
-            f"lobes {[(round(a, 5), round(b, 5)) for a, b in _lobes(z)]}")
+    with ProcessPoolExecutor(max(1, min(jobs, 2))) as pool:
+        for i in range(n - 1, -1, -1):
+            r = rows(float(values[i]))
+            if i < n - 1:  # the neighbour's lobes, scaled by the change of the half width
+                previous = (rows(0.5 * float(values[i] + values[i + 1])), z, series[i + 1])
+                z = z + (start_for(values[i]) - start_for(values[i + 1]))
+            starts = {"neighbour" if i < n - 1 else "half width": z}
+            if i == n - 1:
+                starts["floor"] = floor_start(float(values[i]))
+            runs = {k: pool.submit(fit_node, r, z0, previous=previous) for k, z0 in starts.items()}
+            done = {k: f.result() for k, f in runs.items()}
+            kept = min(done, key=lambda k: done[k][2])  # the first start's on a tie
+            z, s, e = done[kept]
+            lobes[i], series[i], errors[i] = z.reshape(N_TOON, 2), s, e
+            log(f"phong toon: node {i} s = {math.expm1(values[i]):.4g}: {e:.4f} from the "
+                f"{kept}'s start ({', '.join(f'{k} {v[2]:.4f}' for k, v in done.items())}) "
+                f"lobes {[(round(a, 5), round(b, 5)) for a, b in _lobes(z)]}")
     f = Fit(values, lobes, series, errors)
+    return against_glossy(f, log)
+
+
+def against_glossy(f: Fit, log=print) -> Fit:
+    """``f`` with its band and measure made against the committed Glossy
+    mixture (which the nodes' fit does not use: a change to the Glossy
+    data alone asks for these again, not for the fit)."""
     f.band = glossy_band(f, log)
     f.measured = measure(f, f.band)
+    toon, glossy = toon_mixture(f), glossy_mixture()
+    f.at_nodes = tuple((s, width_measure(v, toon)[0], width_measure(v, glossy)[0],
+                        floor(s), floor(s, albedo=True))
+                       for v in f.values for s in [math.expm1(float(v))])
+    f.glossy = glossy_digest()
     return f
 
 
@@ -280,6 +313,17 @@ def evaluate(f: Fit, value: float, cos_o: float):
 def _glossy():
     """The committed Glossy mixture of Phong (:mod:`fitting.mixtures`)."""
     return M.load_fits([KEY])[KEY]
+
+
+def glossy_digest() -> str:
+    """A digest of the committed Glossy mixture of Phong (its widths and
+    weights), which the band and the measure were made against."""
+    from addon.core.fits import mixtures as data
+    d = data.FITS[KEY]
+    h = hashlib.sha256()
+    for name in ("multipliers", "weights"):
+        h.update(np.ascontiguousarray(d[name], dtype=float).tobytes())
+    return h.hexdigest()[:16]
 
 
 def width_measure(value: float, mixture) -> tuple:
@@ -415,6 +459,8 @@ def module_text(f: Fit) -> str:
              "against the reference between the nodes; and the reference values the\n",
              'fit was made against (its staleness test)."""\n\n',
              f"FITTER = {fitter_hash()!r}\n",
+             "# the Glossy mixture of Phong the band and MEASURED were made against\n",
+             f"GLOSSY = {f.glossy!r}\n",
              f"MEMBERS = {MEMBERS!r}\n",
              f"DOMAIN = ({number(f.values[0])}, {number(f.values[-1])})\n",
              f"LOBES = {array(f.lobes, indent='    ')}\n",
@@ -426,6 +472,9 @@ def module_text(f: Fit) -> str:
              "MEASURED = {" + ", ".join(
                  f"{k!r}: {number(m[k]) if isinstance(m[k], float) else repr(m[k])}"
                  for k in keys) + "}\n",
+             "# at each node: (s, max |d|/peak up to 70 deg of the Toon mixture, of\n",
+             "# the Glossy mixture, floor(s), floor(s, albedo=True))\n",
+             f"AT_NODES = {array(f.at_nodes, indent='    ')}\n",
              f"FINGERPRINT = {array(fingerprint(), indent='    ')}\n"]
     return "".join(lines)
 
@@ -435,36 +484,68 @@ def load() -> Fit:
     from addon.core.fits import toon as data
     values = np.linspace(data.DOMAIN[0], data.DOMAIN[1], len(data.LOBES))
     return Fit(values, np.array(data.LOBES, float), np.array(data.WEIGHTS, float),
-               np.zeros(len(values)), dict(data.MEASURED), data.GLOSSY_BAND)
+               np.zeros(len(values)), dict(data.MEASURED), data.GLOSSY_BAND, data.GLOSSY,
+               tuple(tuple(row) for row in data.AT_NODES))
 
 
-def floor(exponent: float) -> float:
-    """How close Toon lobes and a diffuse one can come to Phong's lobe at
-    ``exponent`` with everything free at every view: the largest over the
-    views up to 70 deg of a minimax linear programme over 240 Toon lobes
-    (40 sizes from 2 % of the lobe's half width to pi/2, smooth 0 to 4
-    times the size) and the diffuse one, lights up to 70 deg, over the
-    largest peak over the views.  Up to the dictionary's steps, no mixture
-    of these closures, with weights and lobes that depend on the view, does
-    better."""
-    value = math.log1p(exponent)
-    r = rows(value)
+def _dictionary(value: float) -> list:
+    """240 Toon lobes ``(size, smooth)``: 40 sizes from 2 % of Phong's lobe
+    width at ``value`` to pi/2, smooth 0 to 4 times the size."""
     width = target().lobe_width(value)
-    lobes = [(a / HALF_PI, min(a * f, HALF_PI) / HALF_PI)
-             for a in np.geomspace(max(width * 0.02, SIZE_MIN * HALF_PI), HALF_PI, 40)
-             for f in (0.0, 0.25, 0.5, 1.0, 2.0, 4.0)]
-    worst = 0.0
+    return [(a / HALF_PI, min(a * f, HALF_PI) / HALF_PI)
+            for a in np.geomspace(max(width * 0.02, SIZE_MIN * HALF_PI), HALF_PI, 40)
+            for f in (0.0, 0.25, 0.5, 1.0, 2.0, 4.0)]
+
+
+def _free_views(value: float, albedo: bool = False):
+    """At each view up to 70 deg, the minimax linear programme over
+    :func:`_dictionary` and the diffuse lobe, lights up to 70 deg, in units
+    of the largest peak over the views; ``albedo``: the directional albedo
+    held within ALBEDO_TOLERANCE of the model's too.  Yields (weights (K,),
+    each member's largest value (K,), the error)."""
+    r = rows(value)
+    lobes = _dictionary(value)
     for deg, _u, s in r.views:
         if deg > 70:
             continue
-        A, _alb = _columns(s, lobes)
+        A, alb = _columns(s, lobes)
         A, t = A[s.fit], s.target[s.fit] / r.peak70
         n = A.shape[1]
-        res = linprog(np.r_[np.zeros(n), 1.0],
-                      A_ub=np.vstack([np.c_[A, -np.ones(len(t))], np.c_[-A, -np.ones(len(t))]]),
-                      b_ub=np.r_[t, -t], bounds=[(0, None)] * (n + 1), method="highs")
-        worst = max(worst, float(res.x[n]))
-    return worst
+        ub = [np.c_[A, -np.ones(len(t))], np.c_[-A, -np.ones(len(t))]]
+        rhs = [t, -t]
+        if albedo:  # in units of the peak, as the samples
+            a, ta = np.r_[alb, 0.0] / r.peak70, s.target_albedo / r.peak70
+            tol = ALBEDO_TOLERANCE / r.peak70
+            ub += [a[None], -a[None]]
+            rhs += [[ta + tol], [tol - ta]]
+        res = linprog(np.r_[np.zeros(n), 1.0], A_ub=np.vstack(ub), b_ub=np.concatenate(rhs),
+                      bounds=[(0, None)] * (n + 1), method="highs")
+        if not res.success:
+            yield np.zeros(n), A.max(axis=0), math.inf
+        else:
+            yield res.x[:n], A.max(axis=0), float(res.x[n])
+
+
+def floor(exponent: float, albedo: bool = False) -> float:
+    """How close Toon lobes and a diffuse one can come to Phong's lobe at
+    ``exponent`` with everything free at every view: the largest error over
+    the views of :func:`_free_views` (``albedo``: with the directional
+    albedo held too).  Up to the dictionary's steps, no mixture of these
+    closures, with weights and lobes that depend on the view, does
+    better; it may use more than N_TOON lobes at a view."""
+    return max(e for _w, _peak, e in _free_views(math.log1p(exponent), albedo))
+
+
+def floor_start(value: float):
+    """A node's second start: the N_TOON lobes of :func:`_dictionary` that
+    carry the most of :func:`floor`'s mixtures (weight times the lobe's
+    largest value, summed over the views)."""
+    lobes = _dictionary(value)
+    carried = np.zeros(len(lobes))
+    for w, peak, _e in _free_views(value):
+        carried += (w * peak)[:len(lobes)]
+    top = np.argsort(-carried, kind="stable")[:N_TOON]
+    return np.log(np.array([lobes[k] for k in top]).clip([SIZE_MIN, SMOOTH_MIN], 1.0)).ravel()
 
 
 if __name__ == "__main__":
@@ -474,4 +555,5 @@ if __name__ == "__main__":
                          "(the fit itself: python -m tools.fit --toon)")
     for s_exp in [float(x) for x in sys.argv[2:]] or [1.0, 10.0, 100.0, 1000.0]:
         print(f"s = {s_exp:g}: Toon lobes and a diffuse one, free at every view: "
-              f"{floor(s_exp):.3f} of the peak", flush=True)
+              f"{floor(s_exp):.3f} of the peak; with the albedo within "
+              f"{ALBEDO_TOLERANCE:g} too: {floor(s_exp, albedo=True):.3f}", flush=True)

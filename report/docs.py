@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import math
 import re
 from pathlib import Path
 
@@ -27,6 +28,7 @@ MODEL_DOCS = ROOT / "docs" / "models"
 MEASURED = MODEL_DOCS / "measured.json"
 BEGIN, END = "<!-- BEGIN models -->", "<!-- END models -->"
 FITS_BEGIN, FITS_END = "<!-- BEGIN fits -->", "<!-- END fits -->"
+TOON_BEGIN, TOON_END = "<!-- BEGIN toon -->", "<!-- END toon -->"
 
 
 def _value(p, v):
@@ -107,6 +109,25 @@ def _toon_band_words() -> str:
 def _between(text, begin, end, body):
     start = text.index(begin) + len(begin)
     return text[:start] + "\n" + body + "\n" + text[text.index(end):]
+
+
+def render_toon_nodes() -> str:
+    """docs/verification.md's table of Phong's Toon mixture at its width
+    nodes (``AT_NODES`` of addon/core/fits/toon.py)."""
+    from addon.core.formulas import mixtures
+    rows = mixtures.toon_at_nodes()
+    band = mixtures.toon_band_text()
+    lines = ["| s | Toon mixture | Glossy mixture | floor: lobes free per view | "
+             "floor, albedo held too |", "|---|---|---|---|---|"]
+    for s, toon, glossy, free, held in rows:
+        lines.append(f"| {s:.4g} | " if s < 1000 else f"| {s:.0f} | ")
+        lines[-1] += f"{toon:.4f} | {glossy:.4f} | {free:.4f} | {held:.4f} |"
+    lines.append("")
+    lines.append("*Generated from `addon/core/fits/toon.py` (`AT_NODES`): the largest "
+                 "\\|mixture − model\\| over the peak, views and lights up to 70°, at each "
+                 "width node" + (f"; Cycles renders the Glossy mixture for s {band}" if band
+                                 else "") + ".*")
+    return "\n".join(lines)
 
 
 def render_readme(readme: str) -> str:
@@ -353,6 +374,7 @@ def _remains_numbers() -> dict:
             "phong_toon": f"{mixtures.toon_measured()['max_abs_over_peak_70']:.3f}",
             "phong_toon_albedo": f"{mixtures.toon_measured()['albedo_difference_70']:.3f}",
             "phong_band": _phong_band(),
+            **_phong_nodes(),
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.3f}",
             "blinn_phong_joint": ("; then the weight series of the nodes around its worst "
                                   "widths were solved together, as for the Smith variants "
@@ -360,6 +382,38 @@ def _remains_numbers() -> dict:
                                   "variants' 0.002 in proportion to the 0.2): from 0.229 and "
                                   "an albedo off by 0.18"
                                   if JOINT in mixtures.shipped("blinn_phong") else "")}
+
+
+def _phong_nodes() -> dict:
+    """At the Toon data's nodes nearest s = 1, 10 and 100, and over those
+    from the node nearest s = 1000 on: the Toon mixture's errors and the
+    Glossy mixture's (``phong_nodes``), and the floors with the lobes free
+    at every view (``phong_floor``), with the albedo held too
+    (``phong_floor_albedo``), in words."""
+    from addon.core.formulas import mixtures
+    rows = mixtures.toon_at_nodes()
+
+    def nearest(s):
+        return min(range(len(rows)), key=lambda i: abs(math.log1p(rows[i][0]) - math.log1p(s)))
+
+    picks = [nearest(s) for s in (1, 10, 100)]
+    last = nearest(1000)
+
+    def s_text(i):
+        s = rows[i][0]
+        return f"{s:.3g}" if s < 100 else f"{s:.0f}"
+
+    def tail(col):
+        lo, hi = (f(r[col] for r in rows[last:]) for f in (min, max))
+        return f"{lo:.3f}-{hi:.3f}" if f"{lo:.3f}" != f"{hi:.3f}" else f"{hi:.3f}"
+
+    def column(col, at=True):
+        head = ", ".join(f"{rows[i][col]:.3f}" + (f" at s = {s_text(i)}" if at else "")
+                         for i in picks)
+        return f"{head} and {tail(col)}" + (f" from s = {s_text(last)} on" if at else "")
+
+    return {"phong_nodes": f"{column(1)}, where the Glossy mixture errs {column(2, False)}",
+            "phong_floor": column(3, False), "phong_floor_albedo": column(4, False)}
 
 
 def _phong_band() -> str:
@@ -456,13 +510,13 @@ REMAINS = {
         "falling linearly over its smooth) and a diffuse one, fitted over the exponent and "
         "the view (fitting/toon.py; data in addon/core/fits/toon.py){phong_band}: "
         "{phong_toon} of the peak at worst (the widest lobes), the albedo within "
-        "{phong_toon_albedo}; it errs 0.26 at s = 1, 0.14 at s = 10, 0.06 at s = 100 and at "
-        "most 0.037 from s = 1000 on, where the Glossy mixture errs 0.29, 0.43, 0.34 and "
-        "0.13-0.18 (docs/verification.md).  A Toon lobe "
+        "{phong_toon_albedo}; at its width nodes it errs {phong_nodes} (docs/verification.md).  "
+        "A Toon lobe "
         "has no cos theta_i, which Phong's rendered lobe has, so no mixture of them follows "
-        "a wide lobe seen obliquely: with the lobes free at every view, such a mixture errs "
-        "0.18 at s = 1, 0.12 at s = 10, 0.05 at s = 100 and 0.017 at s = 1000 (python -m "
-        "fitting.toon --floor).  EEVEE renders the Toon BSDF as a diffuse one, so the node "
+        "a wide lobe seen obliquely: with the lobes and weights free at every view (any "
+        "number of lobes), such a mixture errs {phong_floor} at the same nodes, and with its "
+        "directional albedo held within 0.01 of the model's as well {phong_floor_albedo} "
+        "(python -m fitting.toon --floor).  EEVEE renders the Toon BSDF as a diffuse one, so the node "
         "group switches (a Mix Shader whose factor is EEVEE's Shader to RGB, which Cycles "
         "does not have): EEVEE renders the mixture of Glossy lobes about the normal "
         "(half-vector lobes), which errs {phong} of the peak.  The hybrid mode is exact."),
@@ -502,6 +556,9 @@ def measured_rows(checks, blender: str) -> dict:
 def outputs() -> dict:
     """Every generated documentation file: path -> text."""
     files = {README: render_readme(README.read_text(encoding="utf-8"))}
+    verification = README.parent / "docs" / "verification.md"
+    files[verification] = _between(verification.read_text(encoding="utf-8"), TOON_BEGIN,
+                                   TOON_END, render_toon_nodes())
     for model_id in catalogue.MODELS:
         files[MODEL_DOCS / f"{model_id}.md"] = render_model_page(model_id)
     return files

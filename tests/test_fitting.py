@@ -1131,10 +1131,34 @@ def test_the_toon_mixture_is_the_fitters_output():
     from fitting import toon as T
     data = _toon_data()
     assert data.FITTER == T.fitter_hash(), "the toon fitter changed since: run make fit"
+    assert data.GLOSSY == T.glossy_digest(), \
+        "Phong's Glossy mixture changed since the band and the measure: run make fit ONLY=phong"
     assert tuple(data.MEMBERS) == T.MEMBERS
     assert len(data.LOBES) == len(data.WEIGHTS) == T.N_NODES
     assert data.FINGERPRINT == pytest.approx(T.fingerprint(), rel=1e-9, abs=1e-12), \
         "the reference changed since the fit: run make fit"
+
+
+def test_the_toon_data_at_its_nodes_is_the_fitters_measure():
+    """AT_NODES, which the model page quotes: at every node the Toon and the
+    Glossy mixtures' errors are what the fitter's measure gives for the
+    committed data; at the node nearest s = 10 the floors are what
+    fitting.toon.floor gives (with the albedo held too it can only be
+    higher)."""
+    from fitting import toon as T
+    data = _toon_data()
+    fit = T.load()
+    toon, glossy = T.toon_mixture(fit), T.glossy_mixture()
+    assert len(data.AT_NODES) == len(fit.values)
+    for value, (s, e_toon, e_glossy, free, held) in zip(fit.values, data.AT_NODES):
+        assert s == pytest.approx(math.expm1(value), rel=1e-12)
+        assert e_toon == pytest.approx(T.width_measure(value, toon)[0], rel=1e-9)
+        assert e_glossy == pytest.approx(T.width_measure(value, glossy)[0], rel=1e-9)
+        assert 0.0 < free <= held + 1e-9
+    s, _t, _g, free, held = min(data.AT_NODES, key=lambda row: abs(math.log(row[0] + 1) - math.log(11)))
+    # the linear programme's optimum, to HiGHS's tolerance
+    assert free == pytest.approx(T.floor(s), rel=1e-6)
+    assert held == pytest.approx(T.floor(s, albedo=True), rel=1e-6)
 
 
 def test_the_shaders_toon_mixture_is_the_fitters():

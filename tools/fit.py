@@ -17,7 +17,7 @@
   ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
   fit`` runs it for the variants in its HALVE);
 - ``--toon``: Phong's mixture of Toon glossy lobes for Cycles' native
-  nodes (:mod:`fitting.toon`; about 25 minutes on one core, kept in
+  nodes (:mod:`fitting.toon`; about 40 minutes, mostly on one core, kept in
   build/fits);
 - ``--move``: the members' widths of the nodes around a Smith variant's
   worst widths moved, each node's series solved again, then those nodes'
@@ -169,13 +169,23 @@ def move(jobs=2, only=None, sweeps=None):
           todo, list(targets), jobs, committed=True)
 
 
-def toon():
+def toon(jobs=2):
     """``addon/core/fits/toon.py`` (:mod:`fitting.toon`; the fit kept by
-    :func:`_kept`)."""
+    :func:`_kept`; ``jobs``: processes for the narrowest node's two
+    starts)."""
+    import pickle
+
     from fitting import FITS
     from fitting import toon as T
-    fit = _kept(CACHE / f"{T.fitter_hash()}-phong-toon.pickle", "phong toon",
-                lambda: T.fit(log=lambda msg: print(msg, flush=True)))
+    log = functools.partial(print, flush=True)
+    cached = CACHE / f"{T.fitter_hash()}-phong-toon.pickle"
+    fit = _kept(cached, "phong toon", lambda: T.fit(log=log, jobs=jobs))
+    if getattr(fit, "glossy", None) != T.glossy_digest():
+        # Phong's Glossy mixture changed since: its band and the measure again
+        # (minutes), the nodes' fit kept (it does not use the Glossy mixture)
+        print("phong toon: the Glossy mixture changed: band and measure again", flush=True)
+        fit = T.against_glossy(fit, log)
+        cached.write_bytes(pickle.dumps(fit))
     path = FITS / "toon.py"
     path.write_text(T.module_text(fit))
     print(f"wrote {path.relative_to(ROOT)}")
@@ -277,7 +287,7 @@ def main(argv=None) -> int:
     if args.sweeps is not None and (not args.move or args.sweeps < 1):
         parser.error(f"--sweeps goes with --move and is 1 or more, not {args.sweeps}")
     if args.toon:
-        toon()
+        toon(args.jobs)
         return 0
     if args.collect:
         collect(args.jobs, args.only)

@@ -192,6 +192,12 @@ def toon_glossy_band(x):
     return E.lt(x, band[1]) * E.ge(x, band[0])
 
 
+def toon_at_nodes() -> tuple:
+    """((s, the Toon mixture's max |d|/peak up to 70 deg, the Glossy
+    mixture's), ...) at each of the Toon data's nodes."""
+    return tuple(tuple(row) for row in _toon.AT_NODES)
+
+
 def toon_band_text():
     """The exponents where Cycles renders Phong's Glossy mixture too, as the
     docs and the report write them ("0.21-0.78"), or None."""
