@@ -194,7 +194,9 @@ def toon_glossy_band(x):
 
 def toon_at_nodes() -> tuple:
     """((s, the Toon mixture's max |d|/peak up to 70 deg, the Glossy
-    mixture's), ...) at each of the Toon data's nodes."""
+    mixture's, the floor with the lobes free at every view, the floor with
+    the albedo held too), ...) at each of the Toon data's nodes
+    (fitting/toon.py)."""
     return tuple(tuple(row) for row in _toon.AT_NODES)
 
 
