@@ -21,7 +21,9 @@ lobes' sizes and smooths (shared by every view: the lobe's shape in psi
 does not depend on the view) are chosen by Nelder-Mead, each node starting
 from its narrower neighbour's (the narrowest from the better of two
 starts, one of them the lobes that carry most of :func:`floor`'s
-mixtures); for given lobes, the members' weights, each
+mixtures), to the least objective of the linear programme below (not its
+largest error alone, which gave the albedo away at the wide end: 0.26 at
+s = 0); for given lobes, the members' weights, each
 a Chebyshev series of degree N_VIEW - 1 in the view variable of
 :mod:`fitting.mixtures`, are one linear programme over every view at once
 (every 5 deg up to 70: the largest |mixture - model| over the peak, lights
@@ -31,9 +33,10 @@ range), at the node and half way back to the node fitted before (the
 interpolated mixture there, so the interval is fitted, not only its end).
 Between the nodes the lobes' log size and log smooth and the series'
 coefficients are linear in log(1 + s), as the shaders have them.  Where
-the Glossy mixture of :mod:`fitting.mixtures` measures better (the first
-run of such widths from the wide end: :func:`glossy_band`), Cycles renders
-it instead, and what the data records is what Cycles renders.
+the Glossy mixture of :mod:`fitting.mixtures` measures better by the same
+objective (the first run of such widths from the wide end:
+:func:`glossy_band`), Cycles renders it instead, and what the data records
+is what Cycles renders.
 
 EEVEE renders the Toon BSDF as a diffuse one, so the node group renders
 this mixture in Cycles only; EEVEE keeps the Glossy mixture of
@@ -166,7 +169,9 @@ def solve(r: Rows, lobes, back=None):
     peak.  ``back``: ``(rows, lobes, series)`` half way to the previous
     node, where the shaders interpolate (its lobes, and half of its series
     plus half of this one's): that width is fitted too.  Variables: the
-    series' coefficients, e70, e85, the albedo excess."""
+    series' coefficients, e70, e85, the albedo excess.  Returns (series,
+    e70, the programme's objective: e70 + GRAZING_WEIGHT e85 +
+    ALBEDO_PENALTY excess), the errors infinite where it has no solution."""
     K, D = len(MEMBERS), M.N_VIEW
     n = K * D
     ub_rows, ub_rhs = _view_rows(r, lobes, n)
@@ -188,8 +193,8 @@ def solve(r: Rows, lobes, back=None):
     res = linprog(c, A_ub=np.vstack(ub_rows), b_ub=np.concatenate([np.ravel(x) for x in ub_rhs]),
                   bounds=[(None, None)] * n + [(0, None)] * 3, method="highs")
     if not res.success:
-        return None, math.inf
-    return res.x[:n].reshape(K, D), float(res.x[n])
+        return None, math.inf, math.inf
+    return res.x[:n].reshape(K, D), float(res.x[n]), float(res.fun)
 
 
 def _lobes(z):
@@ -200,9 +205,11 @@ def _lobes(z):
 
 
 def fit_node(r: Rows, start, effort=40, previous=None):
-    """Nelder-Mead over the lobes' log size and log smooth from ``start``;
-    ``previous``: ``(rows half way back, its lobes' variables, its
-    series)`` of the node fitted before, the interval between fitted too."""
+    """Nelder-Mead over the lobes' log size and log smooth from ``start``,
+    to the least objective of :func:`solve`; ``previous``: ``(rows half
+    way back, its lobes' variables, its series)`` of the node fitted
+    before, the interval between fitted too.  Returns (variables, series,
+    e70, objective)."""
     best = {}
 
     def back(z):
@@ -214,7 +221,7 @@ def fit_node(r: Rows, start, effort=40, previous=None):
     def cost(z):
         key = tuple(np.round(z, 9))
         if key not in best:
-            best[key] = solve(r, _lobes(z), back(z))[1]
+            best[key] = solve(r, _lobes(z), back(z))[2]
         return best[key]
 
     z0 = np.asarray(start, float)
@@ -223,8 +230,8 @@ def fit_node(r: Rows, start, effort=40, previous=None):
                                 initial_simplex=z0 + np.vstack([np.zeros(len(z0)),
                                                                 0.3 * np.eye(len(z0))])))
     z = np.asarray(res.x, float)
-    series, err = solve(r, _lobes(z), back(z))
-    return z, series, err
+    series, err, objective = solve(r, _lobes(z), back(z))
+    return z, series, err, objective
 
 
 def start_for(value: float):
@@ -245,6 +252,7 @@ class Fit:
     measured: dict = field(default_factory=dict)
     band: tuple = None        # (lo, hi) in log(1 + s): the Glossy mixture there
     glossy: str = None        # glossy_digest() of what band and measured were made against
+    floors: tuple = None      # ((floor(s), floor(s, albedo=True)), ...) at each node
     at_nodes: tuple = None    # ((s, Toon e70, Glossy e70, floors), ...) at each node
 
 
@@ -252,8 +260,8 @@ def fit(log=print, jobs=1) -> Fit:
     """Narrow to wide, each node by Nelder-Mead from its narrower
     neighbour's lobes (scaled by the change of the half width), so that the
     lobes interpolated between the nodes stay near both; the narrowest from
-    two starts, :func:`start_for` and :func:`floor_start`, the better kept
-    (``jobs``: processes for the two).  (Every node from both starts was
+    two starts, :func:`start_for` and :func:`floor_start`, the one of
+    lesser objective kept (``jobs``: processes for the two).  (Every node from both starts was
     tried: where the floor's start won, the lobes jumped between the nodes
     and the widths between them erred up to 0.70; docs/verification.md.)"""
     from concurrent.futures import ProcessPoolExecutor
@@ -277,13 +285,16 @@ def fit(log=print, jobs=1) -> Fit:
                 starts["floor"] = floor_start(float(values[i]))
             runs = {k: pool.submit(fit_node, r, z0, previous=previous) for k, z0 in starts.items()}
             done = {k: f.result() for k, f in runs.items()}
-            kept = min(done, key=lambda k: done[k][2])  # the first start's on a tie
-            z, s, e = done[kept]
+            kept = min(done, key=lambda k: done[k][3])  # the first start's on a tie
+            z, s, e, objective = done[kept]
             lobes[i], series[i], errors[i] = z.reshape(N_TOON, 2), s, e
-            log(f"phong toon: node {i} s = {math.expm1(values[i]):.4g}: {e:.4f} from the "
-                f"{kept}'s start ({', '.join(f'{k} {v[2]:.4f}' for k, v in done.items())}) "
+            log(f"phong toon: node {i} s = {math.expm1(values[i]):.4g}: {e:.4f} "
+                f"(objective {objective:.4f}) from the {kept}'s start ("
+                f"{', '.join(f'{k} {v[2]:.4f} ({v[3]:.4f})' for k, v in done.items())}) "
                 f"lobes {[(round(a, 5), round(b, 5)) for a, b in _lobes(z)]}")
-    f = Fit(values, lobes, series, errors)
+    floors = tuple((floor(s), floor(s, albedo=True))
+                   for v in values for s in [math.expm1(float(v))])
+    f = Fit(values, lobes, series, errors, floors=floors)
     return against_glossy(f, log)
 
 
@@ -294,9 +305,8 @@ def against_glossy(f: Fit, log=print) -> Fit:
     f.band = glossy_band(f, log)
     f.measured = measure(f, f.band)
     toon, glossy = toon_mixture(f), glossy_mixture()
-    f.at_nodes = tuple((s, width_measure(v, toon)[0], width_measure(v, glossy)[0],
-                        floor(s), floor(s, albedo=True))
-                       for v in f.values for s in [math.expm1(float(v))])
+    f.at_nodes = tuple((s, width_measure(v, toon)[0], width_measure(v, glossy)[0], *fl)
+                       for v, fl in zip(f.values, f.floors) for s in [math.expm1(float(v))])
     f.glossy = glossy_digest()
     return f
 
@@ -367,18 +377,28 @@ def glossy_mixture(g=None):
 BAND_STEPS = 8  # the band's ends are on a grid of an eighth of a node interval
 
 
+def score(measured: tuple) -> float:
+    """What the fit minimises (the objective of :func:`solve`) as one
+    width's :func:`width_measure` has it: e70 + GRAZING_WEIGHT e85 +
+    ALBEDO_PENALTY (the albedo's excess over ALBEDO_TOLERANCE); its e85
+    is over every view and sample, the programme's over the views beyond
+    70 deg."""
+    e70, e85, _da70, da85 = measured[:4]
+    return e70 + GRAZING_WEIGHT * e85 + ALBEDO_PENALTY * max(0.0, da85 - ALBEDO_TOLERANCE)
+
+
 def glossy_band(f: Fit, log=print):
     """``(lo, hi)`` in log(1 + s): the first run of widths from the wide end
-    (s = 0) where the Glossy mixture measures better than the Toon one (on
-    a grid of an eighth of a node interval, views every 5 deg); Cycles
-    renders the Glossy mixture there too.  None where there is none."""
+    (s = 0) where the Glossy mixture measures better than the Toon one by
+    :func:`score`, the fit's own objective (on a grid of an eighth of a
+    node interval, views every 5 deg); Cycles renders the Glossy mixture
+    there too.  None where there is none."""
     step = (f.values[1] - f.values[0]) / BAND_STEPS
     grid = f.values[0] + step * np.arange(int(round((f.values[-1] - f.values[0]) / step)) + 1)
     toon, glossy = toon_mixture(f), glossy_mixture()
     better = []
     for x in grid:
-        et, eg = width_measure(x, toon)[0], width_measure(x, glossy)[0]
-        better.append(eg < et)
+        better.append(score(width_measure(x, glossy)) < score(width_measure(x, toon)))
         if len(better) > 2 and not any(better[-3:]) and any(better):
             break  # past the run
     if not any(better):
@@ -485,6 +505,7 @@ def load() -> Fit:
     values = np.linspace(data.DOMAIN[0], data.DOMAIN[1], len(data.LOBES))
     return Fit(values, np.array(data.LOBES, float), np.array(data.WEIGHTS, float),
                np.zeros(len(values)), dict(data.MEASURED), data.GLOSSY_BAND, data.GLOSSY,
+               tuple(tuple(row[3:]) for row in data.AT_NODES),
                tuple(tuple(row) for row in data.AT_NODES))
 
 

@@ -102,8 +102,8 @@ def render_fits() -> str:
 def _toon_band_words() -> str:
     """Where Cycles renders Phong's Glossy mixture too, for a table cell."""
     from addon.core.formulas import mixtures
-    band = mixtures.toon_band_text()
-    return "" if band is None else f", the row above for s {band}"
+    words = mixtures.toon_band_words()
+    return words and f", {words}"
 
 
 def _between(text, begin, end, body):
@@ -413,7 +413,8 @@ def _phong_nodes() -> dict:
         return f"{head} and {tail(col)}" + (f" from s = {s_text(last)} on" if at else "")
 
     return {"phong_nodes": f"{column(1)}, where the Glossy mixture errs {column(2, False)}",
-            "phong_floor": column(3, False), "phong_floor_albedo": column(4, False)}
+            "phong_floor": column(3, False), "phong_floor_albedo": column(4, False),
+            "phong_toon_wide": f"{rows[0][1]:.3f}", "phong_floor_wide": f"{rows[0][4]:.3f}"}
 
 
 def _phong_band() -> str:
@@ -516,7 +517,9 @@ REMAINS = {
         "a wide lobe seen obliquely: with the lobes and weights free at every view (any "
         "number of lobes), such a mixture errs {phong_floor} at the same nodes, and with its "
         "directional albedo held within 0.01 of the model's as well {phong_floor_albedo} "
-        "(python -m fitting.toon --floor).  EEVEE renders the Toon BSDF as a diffuse one, so the node "
+        "(python -m fitting.toon --floor).  The fit weighs the albedo's excess beside the "
+        "largest error, so at s = 0 it errs {phong_toon_wide}, as the floor with the albedo "
+        "held does ({phong_floor_wide}).  EEVEE renders the Toon BSDF as a diffuse one, so the node "
         "group switches (a Mix Shader whose factor is EEVEE's Shader to RGB, which Cycles "
         "does not have): EEVEE renders the mixture of Glossy lobes about the normal "
         "(half-vector lobes), which errs {phong} of the peak.  The hybrid mode is exact."),

@@ -309,23 +309,34 @@ def test_a_mixture_plans_no_tangent_and_three_weights_per_vector_node(model, enu
     assert vector_steps >= 7  # degree 7 (8 coefficients): 7 steps
 
 
-def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee():
+@pytest.mark.parametrize("band", ["shipped", "synthetic"])
+def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee(monkeypatch, band):
     """Phong's BSDF output: a Mix Shader whose factor is the Alpha of Shader
     to RGB of an emission (EEVEE: 1; Cycles drops the node, the factor
     stays 0), the Toon mixture on its first input, the Glossy one on its
-    second (EEVEE renders the Toon BSDF as a diffuse one)."""
+    second (EEVEE renders the Toon BSDF as a diffuse one).  With a band
+    where Cycles renders the Glossy mixture too (the shipped data has none;
+    one put in its place, log(1 + s) from 0.3 to 0.5), the factor is the
+    larger of the Alpha and the band."""
+    from addon.core.fits import toon as data
+    if band == "synthetic":
+        monkeypatch.setattr(data, "GLOSSY_BAND", (0.3, 0.5))
     for norm in ("none", "energy"):
         nodes, refs = _plan("phong", {"normalization": norm})
         by_id = {n.id: n for n in nodes}
         mix = by_id[refs["BSDF"][1]]
         assert mix.type == "ShaderNodeMixShader"
-        # the exponent is a socket: the factor is the larger of EEVEE's 1 and
-        # the band where Cycles renders the Glossy mixture too
+        assert mix.props["input_defaults"] == {0: 0.0}  # what Cycles keeps of a dropped link
         either = by_id[mix.inputs[0][1]]
-        assert either.type == "ShaderNodeMath" and either.props["operation"] == "MAXIMUM"
-        assert either.props["input_defaults"] == {0: 0.0}  # what Cycles keeps of the link
-        fac = by_id[either.inputs[0][1]]
-        assert fac.type == "ShaderNodeShaderToRGB" and either.inputs[0][2] == 1  # Alpha
+        if data.GLOSSY_BAND is None:
+            fac, link = either, mix.inputs[0]
+        else:
+            # the exponent is a socket: the factor is the larger of EEVEE's 1
+            # and the band where Cycles renders the Glossy mixture too
+            assert either.type == "ShaderNodeMath" and either.props["operation"] == "MAXIMUM"
+            assert either.props["input_defaults"] == {0: 0.0}
+            fac, link = by_id[either.inputs[0][1]], either.inputs[0]
+        assert fac.type == "ShaderNodeShaderToRGB" and link[2] == 1  # Alpha
         assert by_id[fac.inputs[0][1]].type == "ShaderNodeEmission"
 
         def closures(src):
@@ -343,21 +354,30 @@ def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee():
                    if n.type == "ShaderNodeBsdfToon")
 
 
-def test_native_phong_at_a_known_exponent_folds_the_band():
+@pytest.mark.parametrize("band", ["shipped", "synthetic"])
+def test_native_phong_at_a_known_exponent_folds_the_band(monkeypatch, band):
     """An exponent known when the graph is made (a constant; Cycles folds a
     socket's unlinked value the same way) decides the band there: in it,
-    the Glossy mixture alone; outside, the switch with EEVEE's factor."""
+    the Glossy mixture alone; outside, the switch with EEVEE's factor.  The
+    shipped data has no band (the Toon mixture measures better everywhere),
+    so the switch is everywhere; a band put in its place (log(1 + s) from
+    0.3 to 0.5) is folded too."""
     import math as m
 
     from addon.core.fits import toon as data
     from addon.core.formulas import expr as E
     from addon.core.formulas import models as formulas
 
+    if band == "synthetic":
+        monkeypatch.setattr(data, "GLOSSY_BAND", (0.3, 0.5))
     enums = {"normalization": "none"}
     v = formulas.Values("phong", enums, known=True)
     s = formulas.shading("phong", enums, caps=formulas.NATIVE_CLOSURES)
-    lo, hi = data.GLOSSY_BAND
-    for exponent, banded in ((m.expm1(0.5 * (lo + hi)), True), (20.0, False)):
+    checks = [(0.0, False), (m.expm1(0.4), band == "synthetic"), (20.0, False)]
+    if data.GLOSSY_BAND is not None:
+        lo, hi = data.GLOSSY_BAND
+        checks.append((m.expm1(0.5 * (lo + hi)), True))
+    for exponent, banded in checks:
         v._cache["exponent"] = E.const(exponent)
         g = formulas.FORMULAS["phong"].closure(v, s)
         ops = {e.op for e in E.topological([g])}

@@ -202,9 +202,16 @@ def toon_at_nodes() -> tuple:
 
 def toon_band_text():
     """The exponents where Cycles renders Phong's Glossy mixture too, as the
-    docs and the report write them ("0.21-0.78"), or None."""
+    docs and the report write them ("LO-HI", two decimals each), or None."""
     band = _toon.GLOSSY_BAND
     return None if band is None else f"{math.expm1(band[0]):.2f}-{math.expm1(band[1]):.2f}"
+
+
+def toon_band_words() -> str:
+    """Where the Toon mixture's row of a table points to the Glossy
+    mixture's row above it ("the row above for s LO-HI"), or ""."""
+    band = toon_band_text()
+    return "" if band is None else f"the row above for s {band}"
 
 
 def toon_mixture(x, cos_o, member):
