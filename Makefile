@@ -135,7 +135,7 @@ bench: $(STAMP)
 # Gaussian's, longer for Blinn's (its joint solve alone took two hours on
 # one core); it ships for both, and each has the number of sweeps that
 # measured better (docs/verification.md).  And Phong's mixture of Toon lobes
-# for Cycles' native nodes (fitting/toon.py; about 40 minutes, mostly on one core;
+# for Cycles' native nodes (fitting/toon.py; about 45 minutes, on two cores;
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta

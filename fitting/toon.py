@@ -21,7 +21,9 @@ lobes' sizes and smooths (shared by every view: the lobe's shape in psi
 does not depend on the view) are chosen by Nelder-Mead, each node starting
 from its narrower neighbour's (the narrowest from the better of two
 starts, one of them the lobes that carry most of :func:`floor`'s
-mixtures), to the least objective of the linear programme below (not its
+mixtures; a node that its neighbour's start leaves more than
+SECOND_START_GAP above the floor with the albedo held, from the better of
+that and the lobes that carry most of that floor's), to the least objective of the linear programme below (not its
 largest error alone, which gave the albedo away at the wide end: 0.26 at
 s = 0); for given lobes, the members' weights, each
 a Chebyshev series of degree N_VIEW - 1 in the view variable of
@@ -71,6 +73,9 @@ GRAZING_WEIGHT = 0.1   # the error up to 85 deg, beside the one up to 70 deg
 ALBEDO_PENALTY = 2.0   # per unit of albedo beyond ALBEDO_TOLERANCE
 SIZE_MIN = 1e-5        # Cycles clamps size to [1e-5, 1]
 SMOOTH_MIN = 1e-4      # the fit keeps smooth > 0 (a log in the data)
+# a node whose neighbour's start ends this far above floor(s, albedo=True)
+# takes the better of it and a start from that floor's lobes
+SECOND_START_GAP = 0.02
 
 
 def glossy_toon(wi, wo, size, smooth):
@@ -261,9 +266,14 @@ def fit(log=print, jobs=1) -> Fit:
     neighbour's lobes (scaled by the change of the half width), so that the
     lobes interpolated between the nodes stay near both; the narrowest from
     two starts, :func:`start_for` and :func:`floor_start`, the one of
-    lesser objective kept (``jobs``: processes for the two).  (Every node from both starts was
-    tried: where the floor's start won, the lobes jumped between the nodes
-    and the widths between them erred up to 0.70; docs/verification.md.)"""
+    lesser objective kept (``jobs``: processes for a node's two starts).  A node whose
+    neighbour's start ends more than SECOND_START_GAP above the floor with
+    the albedo held also takes the start of that floor's lobes
+    (:func:`floor_start` with ``albedo``), if its objective is less.
+    (Every node from the free floor's start, the better kept by the
+    largest error, was tried: where that start won, the lobes jumped
+    between the nodes and the widths between them erred up to 0.70;
+    docs/verification.md.)"""
     from concurrent.futures import ProcessPoolExecutor
 
     lo, hi = target().domain
@@ -272,6 +282,8 @@ def fit(log=print, jobs=1) -> Fit:
     lobes = np.zeros((n, N_TOON, 2))
     series = np.zeros((n, len(MEMBERS), M.N_VIEW))
     errors = np.zeros(n)
+    floors = tuple((floor(s), floor(s, albedo=True))
+                   for v in values for s in [math.expm1(float(v))])
     z = start_for(values[-1])
     previous = None
     with ProcessPoolExecutor(max(1, min(jobs, 2))) as pool:
@@ -283,17 +295,20 @@ def fit(log=print, jobs=1) -> Fit:
             starts = {"neighbour" if i < n - 1 else "half width": z}
             if i == n - 1:
                 starts["floor"] = floor_start(float(values[i]))
+            else:  # run beside the neighbour's; taken only past the gap
+                starts["albedo floor"] = floor_start(float(values[i]), albedo=True)
             runs = {k: pool.submit(fit_node, r, z0, previous=previous) for k, z0 in starts.items()}
             done = {k: f.result() for k, f in runs.items()}
-            kept = min(done, key=lambda k: done[k][3])  # the first start's on a tie
+            first = next(iter(done))
+            near = i < n - 1 and done[first][2] <= floors[i][1] + SECOND_START_GAP
+            eligible = [first] if near else list(done)
+            kept = min(eligible, key=lambda k: done[k][3])  # the first start's on a tie
             z, s, e, objective = done[kept]
             lobes[i], series[i], errors[i] = z.reshape(N_TOON, 2), s, e
             log(f"phong toon: node {i} s = {math.expm1(values[i]):.4g}: {e:.4f} "
                 f"(objective {objective:.4f}) from the {kept}'s start ("
                 f"{', '.join(f'{k} {v[2]:.4f} ({v[3]:.4f})' for k, v in done.items())}) "
                 f"lobes {[(round(a, 5), round(b, 5)) for a, b in _lobes(z)]}")
-    floors = tuple((floor(s), floor(s, albedo=True))
-                   for v in values for s in [math.expm1(float(v))])
     f = Fit(values, lobes, series, errors, floors=floors)
     return against_glossy(f, log)
 
@@ -557,13 +572,14 @@ def floor(exponent: float, albedo: bool = False) -> float:
     return max(e for _w, _peak, e in _free_views(math.log1p(exponent), albedo))
 
 
-def floor_start(value: float):
+def floor_start(value: float, albedo: bool = False):
     """A node's second start: the N_TOON lobes of :func:`_dictionary` that
     carry the most of :func:`floor`'s mixtures (weight times the lobe's
-    largest value, summed over the views)."""
+    largest value, summed over the views; ``albedo``: of the floor with the
+    albedo held too)."""
     lobes = _dictionary(value)
     carried = np.zeros(len(lobes))
-    for w, peak, _e in _free_views(value):
+    for w, peak, _e in _free_views(value, albedo):
         carried += (w * peak)[:len(lobes)]
     top = np.argsort(-carried, kind="stable")[:N_TOON]
     return np.log(np.array([lobes[k] for k in top]).clip([SIZE_MIN, SMOOTH_MIN], 1.0)).ravel()

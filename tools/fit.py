@@ -17,7 +17,7 @@
   ``--halve``, then the width nodes halved (:mod:`fitting.halve`; ``make
   fit`` runs it for the variants in its HALVE);
 - ``--toon``: Phong's mixture of Toon glossy lobes for Cycles' native
-  nodes (:mod:`fitting.toon`; about 40 minutes, mostly on one core, kept in
+  nodes (:mod:`fitting.toon`; about 45 minutes, on two cores, kept in
   build/fits);
 - ``--move``: the members' widths of the nodes around a Smith variant's
   worst widths moved, each node's series solved again, then those nodes'
@@ -171,8 +171,7 @@ def move(jobs=2, only=None, sweeps=None):
 
 def toon(jobs=2):
     """``addon/core/fits/toon.py`` (:mod:`fitting.toon`; the fit kept by
-    :func:`_kept`; ``jobs``: processes for the narrowest node's two
-    starts)."""
+    :func:`_kept`; ``jobs``: processes for each node's two starts)."""
     import pickle
 
     from fitting import FITS
