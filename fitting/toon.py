@@ -23,9 +23,10 @@ from its narrower neighbour's (the narrowest from the better of two
 starts, one of them the lobes that carry most of :func:`floor`'s
 mixtures; a node that its neighbour's start leaves more than
 SECOND_START_GAP above the floor with the albedo held, from the better of
-that and the lobes that carry most of that floor's), to the least objective of the linear programme below (not its
-largest error alone, which gave the albedo away at the wide end: 0.26 at
-s = 0); for given lobes, the members' weights, each
+that and the lobes that carry most of that floor's), to the least
+objective of the linear programme below (not its largest error alone,
+which gave the albedo away at the wide end: 0.26 at s = 0); for given
+lobes, the members' weights, each
 a Chebyshev series of degree N_VIEW - 1 in the view variable of
 :mod:`fitting.mixtures`, are one linear programme over every view at once
 (every 5 deg up to 70: the largest |mixture - model| over the peak, lights
@@ -266,10 +267,10 @@ def fit(log=print, jobs=1) -> Fit:
     neighbour's lobes (scaled by the change of the half width), so that the
     lobes interpolated between the nodes stay near both; the narrowest from
     two starts, :func:`start_for` and :func:`floor_start`, the one of
-    lesser objective kept (``jobs``: processes for a node's two starts).  A node whose
-    neighbour's start ends more than SECOND_START_GAP above the floor with
-    the albedo held also takes the start of that floor's lobes
-    (:func:`floor_start` with ``albedo``), if its objective is less.
+    lesser objective kept (``jobs``: processes for a node's two starts).
+    A node whose neighbour's start ends more than SECOND_START_GAP above
+    the floor with the albedo held also takes the start of that floor's
+    lobes (:func:`floor_start` with ``albedo``), if its objective is less.
     (Every node from the free floor's start, the better kept by the
     largest error, was tried: where that start won, the lobes jumped
     between the nodes and the widths between them erred up to 0.70;

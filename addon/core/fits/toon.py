@@ -10,7 +10,7 @@ addon/core/fits/mixtures.py; what the interpolated mixture measured
 against the reference between the nodes; and the reference values the
 fit was made against (its staleness test)."""
 
-FITTER = '9f9a91a15a3ec8eb'
+FITTER = '0771b031e2c18267'
 # the Glossy mixture of Phong the band and MEASURED were made against
 GLOSSY = '40543cc86786ae3a'
 MEMBERS = ('glossy_toon', 'glossy_toon', 'glossy_toon', 'diffuse')
