@@ -197,7 +197,8 @@ def fits_table_html():
                     f"<td class=\"num\">{m['albedo_difference_70']:.3f}</td>"
                     f"<td class=\"num\">{m['albedo_difference_85']:.3f}</td>"
                     f"<td class=\"num\">{beyond}</td><td>{status}</td></tr>")
-    band_words = mixtures.toon_band_words() and f"; {mixtures.toon_band_words()}"
+    words = mixtures.toon_band_words()
+    band_words = words and f"; {words}"
     t = mixtures.toon_measured()
     rows.append("<tr><td>phong, native nodes in Cycles (EEVEE: the row above)</td>"
                 f"<td>glossy_toon, glossy_toon, glossy_toon, diffuse (fitting/toon.py"
