@@ -543,6 +543,34 @@ def test_erfc_accuracy():
     np.testing.assert_allclose(R.erfc(x), ref, rtol=1.2e-7)
 
 
+def test_erfc_is_finite_and_zero_far_out():
+    """Beyond x ~ 27 erfc underflows to 0; the split of exp(-x^2) used to
+    give 0 times an overflow (NaN) at some x from ~3e6 on, which a narrow
+    Beckmann lobe's Lambda reaches near the normal (a = 1/(m tan theta))."""
+    x = np.logspace(1.5, 300, 2000)
+    assert np.all(R.erfc(x) == 0.0)
+    assert R.erfc(np.inf) == 0.0 and R.erfc(-np.inf) == 2.0
+    assert R.erfc(27.0) == pytest.approx(math.erfc(27.0), rel=1e-6, abs=0.0)
+
+
+@pytest.mark.parametrize("shadowing", ["smith", "smith_correlated", "smith_1967"])
+def test_a_narrow_beckmann_lobe_is_continuous_at_the_normal(shadowing):
+    """Lights ever closer to the normal (sin theta from 1e-4 to 1e-12) under a
+    narrow Beckmann lobe (alpha 0.006, seen 1.25 deg off the normal): the
+    value converges to the one at the normal, never 0 (it was, where
+    Lambda's erfc gave NaN: at some of these lights, a = 1/(m tan theta)
+    from ~3e6 on)."""
+    wo = np.array([[math.sin(math.radians(1.25)), 0.0, math.cos(math.radians(1.25))]])
+    at_normal = R.shade("microfacet", np.array([[0.0, 0.0, 1.0]]), wo, distribution="beckmann",
+                        shadowing=shadowing, alpha=0.0062)[0, 0]
+    assert at_normal > 50.0
+    x = np.logspace(-12.0, -4.0, 400)
+    wi = np.stack([x, np.zeros_like(x), np.sqrt(1.0 - x * x)], -1)
+    values = R.shade("microfacet", wi, np.broadcast_to(wo, wi.shape), distribution="beckmann",
+                     shadowing=shadowing, alpha=0.0062)[:, 0]
+    assert values == pytest.approx(np.full_like(x, at_normal), rel=0.05)
+
+
 def test_no_nan_for_degenerate_directions():
     w = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.6, 0.0, 0.8]])
     for model, params in surface_cases():
