@@ -137,6 +137,10 @@ bench: $(STAMP)
 # measured better (docs/verification.md).  And Phong's mixture of Toon lobes
 # for Cycles' native nodes (fitting/toon.py; about 45 minutes, on two cores;
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
+# Last, where each microfacet mixture holds the fitted bound, interval by
+# interval of its width nodes, without and with the model's Fresnel
+# (fitting/bounds.py; about 21 minutes on two cores), written to
+# addon/core/fits/bounds.py: the status "fitted" per width and Fresnel.
 JOBS ?= 2
 HALVE ?= microfacet/blinn/smith/beta microfacet/gaussian/smith/beta
 HALVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(HALVE)),$(HALVE))
@@ -152,6 +156,7 @@ fit: $(STAMP)
 	$(if $(strip $(MOVE_ONCE_NOW)),$(PY) -m tools.fit --move --sweeps 1 --jobs $(JOBS) --only $(MOVE_ONCE_NOW),)
 	$(PY) -m tools.fit --derive --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(TOON_NOW)),$(PY) -m tools.fit --toon --jobs $(JOBS),)
+	$(PY) -m tools.fit --bounds --jobs $(JOBS)
 
 clean:
 	rm -rf build dist .pytest_cache

@@ -36,7 +36,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 15  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 16  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -63,6 +63,8 @@ NODES_VERSION = 15  # 2: a closure-only shader feeds the BSDF output;
 # 14: native Phong's Toon mixture fitted to the linear programme's whole
 #    objective (the albedo too), everywhere in Cycles (no Glossy band)
 # 15: its node at s = 0.85 from a second start (the albedo-held floor's lobes)
+# 16: the microfacet mixtures' diffuse member takes the model's Fresnel at
+#    the mean L.H of the lights it reflects (was: at the view)
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

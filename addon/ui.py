@@ -516,14 +516,14 @@ _STATUS_TEXT = {
 def bsdf_status_text(scene, model_id, variant, node) -> tuple:
     """``(text, icon)``: how the node's BSDF output matches the model with the
     scene's current settings (docs/verification.md's statuses), at the
-    node's width where its width sockets are not linked."""
+    node's width and Fresnel indices where those sockets are not linked."""
     backend, _reason = api.rendering_backend(scene)
     if backend == "none":  # Workbench: no shader nodes
         return "BSDF output: not rendered", 'ERROR'
     if scene.render.engine != 'CYCLES':
         return "BSDF output: EEVEE's own closures (approximate)", 'INFO'
     params = {}
-    for name in (n for names in groups.WIDTH_SOCKETS.values() for n in names):
+    for name in (*(n for names in groups.WIDTH_SOCKETS.values() for n in names), "ior", "k"):
         try:
             socket = groups.input_socket(node, name)
         except KeyError:
@@ -531,7 +531,9 @@ def bsdf_status_text(scene, model_id, variant, node) -> tuple:
         if socket.is_linked:  # its value is the link's: the variant's status
             params = None
             break
-        params[name] = float(socket.default_value)
+        value = socket.default_value
+        params[name] = float(value) if isinstance(value, (int, float)) else \
+            tuple(float(v) for v in value[:3])
     status = formulas.path_traced_status(model_id, variant, params, bpy.app.version, backend)
     return _STATUS_TEXT[status]
 

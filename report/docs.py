@@ -88,7 +88,7 @@ def render_fits() -> str:
     for key in mixtures.FITS:
         m = mixtures.measured(key)
         beyond = f" (beyond α 1: {m['beyond_70']:.2f})" if m["beyond_70"] else ""
-        lines.append(f"| `{key}` | {mixtures.worst_text(key)}{beyond} | "
+        lines.append(f"| `{key}` | {mixtures.worst_text(key)}{_dense(key)}{beyond} | "
                      f"{m['max_abs_over_peak_85']:.3f} | {m['albedo_difference_70']:.3f} | "
                      f"{formulas.fit_status(key)} | {mixtures.shipped(key)} |")
     t = mixtures.toon_measured()
@@ -96,6 +96,48 @@ def render_fits() -> str:
                  f"{t['max_abs_over_peak_85']:.3f} | {t['albedo_difference_70']:.3f} | approx | "
                  f"Toon glossy lobes and a diffuse one (fitting/toon.py){_toon_band_words()}; "
                  f"in EEVEE, which renders the Toon BSDF as a diffuse one, the row above |")
+    return "\n".join(lines)
+
+
+def _dense(key) -> str:
+    """Where fitting/bounds.py (views every 1.25 deg) measured the variant's
+    worst width, without Fresnel, above the fitter's figure: that, for a
+    table cell."""
+    from addon.core.formulas import mixtures
+    dense = mixtures.worst_interval(key, "none")
+    if dense is None or dense < mixtures.measured(key)["max_abs_over_peak_70"] + 5e-4:
+        return ""
+    return f" ({dense:.4f} with views every 1.25°)"
+
+
+def render_fitted_widths() -> str:
+    """The table of where each microfacet mixture is fitted, width by width,
+    without and with Fresnel (addon/core/fits/bounds.py)."""
+    from addon.core.fits import bounds
+    from addon.core.formulas import mixtures
+
+    lo, hi = bounds.DIELECTRIC_RANGE
+    lines = ["| variant | without Fresnel | dielectric, n from "
+             f"{lo:g} to {hi:g} | conductor, k ≥ {bounds.CONDUCTOR_K_MIN:g} |",
+             "|---|---|---|---|"]
+    nowhere = []
+    for key in mixtures.FITS:
+        if key not in bounds.BOUNDS:
+            continue
+        cells = [mixtures.fitted_ranges_text(key, c) for c in ("none", "dielectric", "conductor")]
+        if all(c == "none" for c in cells):
+            nowhere.append(f"`{key}`")
+            continue
+        lines.append(f"| `{key}` | " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append(
+        "*Generated from `addon/core/fits/bounds.py` (`fitting/bounds.py`, the last step of "
+        "`make fit`): the widths where the interval of width nodes around them measured within "
+        f"{formulas.FIT_BOUND:g} of the peak (both nodes and every eighth between, views every "
+        "1.25° and lights up to 70°); the Fresnel columns with the worst index of a grid over "
+        "the class, per colour channel.  There the BSDF output's status is fitted, elsewhere "
+        "approx (as where a width socket is linked and the Fresnel is not none).  Fitted "
+        "nowhere: " + (", ".join(nowhere) or "none") + ".*")
     return "\n".join(lines)
 
 
@@ -132,7 +174,9 @@ def render_toon_nodes() -> str:
 
 def render_readme(readme: str) -> str:
     readme = _between(readme, BEGIN, END, render_models())
-    return _between(readme, FITS_BEGIN, FITS_END, render_fits())
+    return _between(readme, FITS_BEGIN, FITS_END,
+                    render_fits() + "\n\nWidth by width, without and with the model's Fresnel:\n\n"
+                    + render_fitted_widths())
 
 
 # --------------------------------------------------------------------------
@@ -282,10 +326,15 @@ def _fidelity_lines(model_id: str) -> list:
     lines = [FIDELITY_LEGEND]
     if model_id == "microfacet":
         lines += ["", "Any Fresnel (none, dielectric, conductor) rides on the microfacet "
-                  "members; the table is without it: exact and near keep their status "
-                  "with it, a fitted variant is approx (the fits and their bound are for "
-                  "F = 1; measured up to 0.07 of the peak with it); Blender 4.5's conductor "
-                  "closure is an older approximation (up to 8 % off).  Widths: half-angle "
+                  "members (the diffuse member, which has no half vector, takes it at the "
+                  "mean L.H of the lights it reflects); the table is without it and for any "
+                  "width: exact and near keep their status with it; a fitted mixture's "
+                  "status is per width and Fresnel class (the second table below: fitted "
+                  "where the interval of width nodes around the width measured within the "
+                  "bound, approx elsewhere and wherever the width is not known); Blender "
+                  "4.5's conductor closure is an older approximation (up to 8 % off), so "
+                  "there a conductor (and, on the native nodes, a dielectric) is approx.  "
+                  "Widths: half-angle "
                   "beta / native alpha / anisotropic alpha x, y.  Cycles clamps its "
                   "closures' alpha to 1: a native width (alpha, alpha x or y) over 1, or "
                   "Beckmann's m of beta over 1 (beta from 63 deg), renders the clamped "
@@ -318,9 +367,12 @@ def _fidelity_lines(model_id: str) -> list:
             beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "-"
             members = mixtures.members_text(k)
             lines.append(f"| `{k}` | {members} | "
-                         f"{mixtures.worst_text(k)} | {m['max_abs_over_peak_85']:.3f} | "
+                         f"{mixtures.worst_text(k)}{_dense(k)} | {m['max_abs_over_peak_85']:.3f} | "
                          f"{m['albedo_difference_70']:.3f} | {m['albedo_difference_85']:.3f} | "
                          f"{beyond} |")
+        if model_id == "microfacet":
+            lines += ["", "Width by width, without and with the model's Fresnel:", "",
+                      render_fitted_widths()]
     remains = REMAINS.get(model_id)
     if remains:
         lines += ["", remains.format(**_remains_numbers())]
@@ -353,8 +405,11 @@ def _remains_numbers() -> dict:
     moved = [k for k in mixtures.SHIPPED if MOVED in mixtures.shipped(k)]
     smith_keys = [k for k in mixtures.SHIPPED
                   if k.startswith("microfacet/") and k.split("/")[2] in ("smith", "smith_correlated")]
-    within = [k for k in smith_keys if m(k) <= 0.025]
-    over = [k for k in smith_keys if m(k) > 0.025]
+    within = [k for k in smith_keys if formulas.fit_status(k) == "fitted"]
+    over = [k for k in smith_keys if k not in within]
+
+    def worst(key):  # the fitter's measure, or fitting/bounds.py's where larger
+        return max(m(key), mixtures.worst_interval(key, "none") or 0.0)
     return {"smith_beta": f"{min(smith):.3f}-{max(smith):.3f}",
             "re_solved": ", ".join(f"`{k}`" for k in resolved) if resolved else "nowhere today",
             "settled": ", ".join(f"`{k}`" for k in settled) if settled else "nowhere today",
@@ -363,7 +418,7 @@ def _remains_numbers() -> dict:
                                f"{mixtures.measured(k)['albedo_difference_70']:.4f})"
                                for k in trade) if trade else "nowhere today",
             "within": ", ".join(f"`{k}`" for k in within) if within else "none",
-            "over": ", ".join(f"`{k}` ({m(k):.3f})" for k in over) if over else "none",
+            "over": ", ".join(f"`{k}` ({worst(k):.3f})" for k in over) if over else "none",
             "derived": ", ".join(f"`{k}` ({m(k):.3f}, albedo "
                                  f"{mixtures.measured(k)['albedo_difference_70']:.4f})"
                                  for k in derived) if derived else "nowhere today",
@@ -434,8 +489,8 @@ REMAINS = {
         "mode (exact for the bound lamps, the mixture for the rest) is the exact answer.  "
         "The Smith variants of Blinn, Gaussian and Trowbridge-Reitz in beta measure "
         "{smith_beta} (the table).  Within 0.025 at every width: {within} (without "
-        "Fresnel: the bound is for F = 1, and with the model's Fresnel on the members they "
-        "are approx); over it: "
+        "Fresnel, by the fitter's measure and by fitting/bounds.py's, whose views are four "
+        "times as dense; width by width and with Fresnel: the second table); over it: "
         "{over}.  The separable Smith variants in beta missed it over a range of widths "
         "(Blinn at ~56-59 deg and from ~74 deg on, before the width step below; Gaussian at "
         "~67 deg and from ~76 deg on, and Trowbridge-Reitz at ~23-57 deg, still do).  What "

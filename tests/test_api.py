@@ -360,3 +360,36 @@ def test_apply_metal_makes_a_conductor_with_the_measured_index(api, bpy):
     phong = api.add_model(new_material(bpy, "P"), "phong")
     with pytest.raises(ValueError, match="microfacet"):
         api.apply_metal(phong, "gold")
+
+
+def test_the_sidebar_status_reads_the_nodes_width_and_fresnel(api, bpy):
+    """The sidebar's words for the BSDF output follow the node's own width
+    and Fresnel indices (fitting/bounds.py: per width interval and Fresnel
+    class), and fall back to the variant's where a socket is linked."""
+    from addon import groups as nodes
+    from addon import ui
+    from addon.core.formulas import models as formulas
+    mat = new_material(bpy)
+    node = api.add_model(mat, "microfacet", distribution="blinn", shadowing="smith_correlated",
+                         fresnel="dielectric", beta=math.radians(20.0), ior=1.5)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = True
+
+    def status():
+        text, _icon = ui.bsdf_status_text(scene, "microfacet", nodes.rm_info(node.node_tree)[1],
+                                          node)
+        return text
+    fitted, approx = ui._STATUS_TEXT["fitted"][0], ui._STATUS_TEXT["approx"][0]
+    variant = {"distribution": "blinn", "shadowing": "smith_correlated", "width_mode": "beta",
+               "fresnel": "dielectric"}
+    assert formulas.path_traced_status("microfacet", variant, {"beta": 0.35, "ior": 1.5}) \
+        == "fitted"
+    assert status() == fitted
+    api.set_params(node, ior=0.8)  # a dielectric index below 1: not measured
+    assert status() == approx
+    api.set_params(node, ior=1.5)
+    assert status() == fitted
+    value = mat.node_tree.nodes.new("ShaderNodeValue")
+    mat.node_tree.links.new(value.outputs[0], nodes.input_socket(node, "beta"))
+    assert status() == approx  # the width unknown: with Fresnel no bound holds

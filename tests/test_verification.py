@@ -318,3 +318,35 @@ def test_a_fitted_mixture_holds_its_recorded_error_away_from_the_report_cases(ve
         print(f"\n{key} {params} {backend}: {r['max_abs_over_peak_fit_domain']:.4f} "
               f"(bound {bound:.4f})")
         assert r["max_abs_over_peak_fit_domain"] <= bound, r
+
+
+GOLD = dict(zip(("ior", "k"), catalogue.METALS["gold"]))
+
+
+@pytest.mark.parametrize("params", [
+    {"distribution": "gaussian", "shadowing": "smith_correlated", "beta": math.radians(70.0),
+     "fresnel": "dielectric", "ior": 1.5},
+    {"distribution": "beckmann", "shadowing": "smith", "beta": math.radians(60.0),
+     "fresnel": "conductor", **GOLD},
+    {"distribution": "gaussian", "shadowing": "smith", "beta": math.radians(50.0)}],
+    ids=["gaussian-glass", "beckmann-beta-gold", "gaussian-separable"])
+def test_a_width_the_bounds_call_fitted_renders_within_its_intervals_bound(verify, api, params):
+    """Per width and Fresnel (fitting/bounds.py): widths of variants whose
+    worst width is over the bound, or with the model's Fresnel, that the
+    data calls fitted, in intervals measured at 0.018-0.025; on the gonio (the Fresnel cases at two half-angles),
+    views and lights up to 70 deg, on both backends, within the bound the
+    data records for the interval of width nodes around the width."""
+    from addon.core.formulas import mixtures
+    from addon.core.formulas import models as formulas
+
+    key = f"microfacet/{params['distribution']}/{params['shadowing']}/beta"
+    cls = mixtures.fresnel_class(params.get("fresnel", "none"), params)
+    bound = mixtures.interval_bound(key, params["beta"], cls)
+    case = cases_mod.Case("microfacet", params, "held-out width and Fresnel",
+                          fresnel_sweep="fresnel" in params)
+    assert bound <= formulas.FIT_BOUND and case.path_traced_status() == "fitted"
+    for backend in ("osl", "svm"):
+        r = _run(verify, api, case, "path_traced", backend)
+        print(f"\n{key} {cls} {backend}: {r['max_abs_over_peak_fit_domain']:.4f} "
+              f"(interval bound {bound:.4f})")
+        assert r["finite"] and r["max_abs_over_peak_fit_domain"] <= bound, r

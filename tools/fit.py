@@ -19,6 +19,10 @@
 - ``--toon``: Phong's mixture of Toon glossy lobes for Cycles' native
   nodes (:mod:`fitting.toon`; about 45 minutes, on two cores, kept in
   build/fits);
+- ``--bounds``: where each microfacet mixture holds the fitted bound,
+  interval by interval of its width nodes, without and with the model's
+  Fresnel (:mod:`fitting.bounds`; about 21 minutes on two cores; ``make
+  fit`` runs it last);
 - ``--move``: the members' widths of the nodes around a Smith variant's
   worst widths moved, each node's series solved again, then those nodes'
   series solved together, where that ships (:mod:`fitting.widths`; ``make
@@ -191,6 +195,21 @@ def toon(jobs=2):
     print(f"wrote {path.relative_to(ROOT)}")
 
 
+def bounds(jobs=2):
+    """``addon/core/fits/bounds.py`` (:mod:`fitting.bounds`), from the
+    committed mixtures."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from fitting import FITS
+    from fitting import bounds as B
+    keys = B.keys()
+    with ProcessPoolExecutor(jobs) as pool:
+        measured = dict(zip(keys, pool.map(B.measure_key, keys)))
+    path = FITS / "bounds.py"
+    path.write_text(B.module_text(measured))
+    print(f"wrote {path.relative_to(ROOT)}")
+
+
 def _check_committed(todo, keys):
     """Exit unless the committed module comes from this fitter (so its other
     variants can be kept) and ``todo`` are variants."""
@@ -280,6 +299,10 @@ def main(argv=None) -> int:
     parser.add_argument("--toon", action="store_true",
                         help="fit Phong's mixture of Toon glossy lobes for Cycles' native nodes "
                              "(fitting/toon.py) and write addon/core/fits/toon.py")
+    parser.add_argument("--bounds", action="store_true",
+                        help="measure where each microfacet mixture holds the fitted bound, per "
+                             "width interval, without and with Fresnel (fitting/bounds.py) and "
+                             "write addon/core/fits/bounds.py; make fit runs it last")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
@@ -288,6 +311,9 @@ def main(argv=None) -> int:
         parser.error(f"--sweeps goes with --move and is 1 or more, not {args.sweeps}")
     if args.toon:
         toon(args.jobs)
+        return 0
+    if args.bounds:
+        bounds(args.jobs)
         return 0
     if args.collect:
         collect(args.jobs, args.only)

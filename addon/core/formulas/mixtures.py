@@ -79,6 +79,99 @@ def worst_text(key: str) -> str:
     return f"{v:.4f}" if f"{v:.3f}" == f"{FIT_BOUND:.3f}" else f"{v:.3f}"
 
 
+def fresnel_class(fresnel: str, params: dict):
+    """The class ``fitting/bounds.py`` measured a Fresnel choice in, from
+    its indices (``params``' "ior" and "k", colours or scalars, the
+    catalogue's defaults where absent): "none"; "dielectric" (a real index
+    in its range in every channel); "conductor" (k at least its minimum in
+    every channel); None where it measured no such Fresnel."""
+    from .. import catalogue
+    from ..fits import bounds as _bounds
+    if fresnel in (None, "none"):
+        return "none"
+    model = catalogue.MODELS["microfacet"]
+
+    def channels(name):
+        value = params.get(name, model.param(name).default)
+        if isinstance(value, (int, float)):
+            return (float(value),) * 3
+        return tuple(float(v) for v in value)
+    if fresnel == "dielectric":
+        lo, hi = _bounds.DIELECTRIC_RANGE
+        return "dielectric" if all(lo <= n <= hi for n in channels("ior")) else None
+    if fresnel == "conductor":
+        return "conductor" if all(k >= _bounds.CONDUCTOR_K_MIN for k in channels("k")) else None
+    raise ValueError(f"fresnel must be one of {catalogue.FRESNELS}, not {fresnel!r}")
+
+
+def interval_bound(key: str, value: float, fresnel_class: str):
+    """The largest error over the peak that ``fitting/bounds.py`` measured
+    around the width ``value`` (beta in radians, or alpha: the parameter's
+    own value) for a Fresnel class ("none", "dielectric", "conductor"):
+    the bound of the interval between width nodes that holds it, the larger
+    of the two at a node; None where not measured (beyond the closures'
+    range, or no such data)."""
+    from ..fits import bounds as _bounds
+    entry = _bounds.BOUNDS.get(key)
+    if entry is None:
+        return None
+    x = float(value) if entry["width"] == "beta" else math.log(max(float(value), 1e-30))
+    nodes, values = entry["nodes"], entry[fresnel_class]
+    lo, hi = nodes[0], nodes[-1]
+    x = min(max(x, lo), hi)
+    near = [j for j in range(len(nodes) - 1) if nodes[j] - 1e-12 <= x <= nodes[j + 1] + 1e-12]
+    found = [values[j] for j in near]
+    if not found or any(v is None for v in found):
+        return None
+    return max(found)
+
+
+def worst_interval(key: str, fresnel_class: str):
+    """The largest :func:`interval_bound` of the variant (its intervals
+    within the closures' range), or None where not measured."""
+    from ..fits import bounds as _bounds
+    entry = _bounds.BOUNDS.get(key)
+    values = [v for v in entry[fresnel_class] if v is not None] if entry else []
+    return max(values) if values else None
+
+
+def fitted_ranges(key: str, fresnel_class: str) -> list:
+    """The widths where :func:`interval_bound` is within FIT_BOUND, as
+    ``[(lo, hi), ...]`` in the parameter's own value (beta in radians,
+    alpha), neighbouring intervals merged; [] where none is."""
+    from ..fits import bounds as _bounds
+    entry = _bounds.BOUNDS.get(key)
+    if entry is None:
+        return []
+    nodes, values = entry["nodes"], entry[fresnel_class]
+    own = (lambda x: x) if entry["width"] == "beta" else math.exp
+    out = []
+    for j, v in enumerate(values):
+        if v is None or v > FIT_BOUND:
+            continue
+        if out and out[-1][1] == own(nodes[j]):
+            out[-1] = (out[-1][0], own(nodes[j + 1]))
+        else:
+            out.append((own(nodes[j]), own(nodes[j + 1])))
+    return out
+
+
+def fitted_ranges_text(key: str, fresnel_class: str) -> str:
+    """:func:`fitted_ranges` in words: "every width", "none", or the ranges
+    (beta in whole degrees, alpha to two digits)."""
+    from ..fits import bounds as _bounds
+    entry = _bounds.BOUNDS[key]
+    ranges = fitted_ranges(key, fresnel_class)
+    if not ranges:
+        return "none"
+    measured = [v for v in entry[fresnel_class] if v is not None]
+    if len(measured) == len(entry[fresnel_class]) and all(v <= FIT_BOUND for v in measured):
+        return "every width"
+    if entry["width"] == "beta":
+        return ", ".join(f"β {math.degrees(a):.0f}–{math.degrees(b):.0f}°" for a, b in ranges)
+    return ", ".join(f"α {a:.2g}–{b:.2g}" for a, b in ranges)
+
+
 def width_variable(width: str, value):
     """The fit's width variable of a width parameter's value: beta itself,
     log alpha, log(1 + s)."""

@@ -238,10 +238,28 @@ class BlinnPhong(Formula):
 
 
 def fit_status(key):
-    """"fitted" where the shipped data (a fitted mixture or a weighted single
-    lobe: fitting/assemble.py) measured within FIT_BOUND, else "approx"."""
+    """The variant's status at any width, without Fresnel: "fitted" where
+    the shipped data (a fitted mixture or a weighted single lobe:
+    fitting/assemble.py) measured within FIT_BOUND by the fitter's measure
+    and, where ``fitting/bounds.py`` measured it (views four times as
+    dense), in every interval of its width nodes, else "approx"."""
     from . import mixtures
-    return "fitted" if mixtures.measured(key)["max_abs_over_peak_70"] <= FIT_BOUND else "approx"
+    if mixtures.measured(key)["max_abs_over_peak_70"] > FIT_BOUND:
+        return "approx"
+    worst = mixtures.worst_interval(key, "none")
+    return "approx" if worst is not None and worst > FIT_BOUND else "fitted"
+
+
+def fit_status_at(key, value, fresnel, params):
+    """"fitted" where the interval of width nodes around ``value`` measured
+    within FIT_BOUND (``fitting/bounds.py``: without Fresnel, or with the
+    worst index of the class of the model's Fresnel), else "approx"."""
+    from . import mixtures
+    cls = mixtures.fresnel_class(fresnel, params)
+    if cls is None:
+        return "approx"
+    bound = mixtures.interval_bound(key, value, cls)
+    return "fitted" if bound is not None and bound <= FIT_BOUND else "approx"
 
 
 # A fitted mixture is "fitted" (bounded) when its measured largest error over
@@ -491,9 +509,9 @@ class Microfacet(Formula):
 
         def member(name, w, alpha):
             if name == "diffuse":
-                # F at the view: the members' Fresnel is at the half vector,
-                # which a diffuse lobe has not
-                c = E.clamp(cos_o, 0.0, 1.0)
+                # the members' Fresnel is at the half vector, which a diffuse
+                # lobe has not: F at L.H averaged over the lights it reflects
+                c = L.mean_light_half_cosine(E.clamp(cos_o, 0.0, 1.0))
                 F = choose(fr, {
                     "none": lambda: vec(1.0, 1.0, 1.0),
                     "dielectric": lambda: L.per_channel(L.F_dielectric, c, v.p("ior")),
@@ -522,17 +540,23 @@ class Microfacet(Formula):
         mode = enums.get("width_mode", "beta")
         native = dist in ("trowbridge_reitz", "beckmann") and mode != "beta"
         key = f"microfacet/{dist}/{sh}/{'alpha' if native else 'beta'}"
-        status = fit_status(key)
-        if enums.get("fresnel", "none") != "none":
-            # the fit and its bound are for F = 1; with the model's Fresnel on
-            # the members (and F at the view on the diffuse one) the error
-            # grows where F varies over the lobe (measured up to 0.07 of the
-            # peak: Gaussian with correlated Smith, glass 1.5, beta ~80 deg)
-            return "approx"
+        fresnel = enums.get("fresnel", "none")
         if mode == "alpha_xy" or (native and params is not None
                                   and native_width_beyond_closures(dist, enums, params)):
             return "approx"
-        return status
+        if params is None:
+            # the width unknown (a linked socket): the variant's worst width,
+            # measured for F = 1 only
+            return fit_status(key) if fresnel == "none" else "approx"
+        return fit_status_at(key, self._width_value(native, params), fresnel, params)
+
+    @staticmethod
+    def _width_value(native, params):
+        """The width a status is looked up at: alpha (native) or beta, the
+        catalogue's default where not given."""
+        name = "alpha" if native else "beta"
+        default = catalogue.MODELS["microfacet"].param(name).default
+        return float(params.get(name, default))
 
 
 class Ward(Formula):
@@ -616,7 +640,8 @@ def path_traced_status(model_id: str, enums: dict, params=None, blender_version=
     # also carry a dielectric's Fresnel through it (k = 0)
     through_conductor = enums.get("fresnel") == "conductor" or (
         backend == "native" and enums.get("fresnel") == "dielectric")
-    if through_conductor and tuple(blender_version[:2]) < (5, 2) and status in ("exact", "near"):
+    if through_conductor and tuple(blender_version[:2]) < (5, 2) and \
+            status in ("exact", "near", "fitted"):
         return "approx"
     return status
 
