@@ -179,8 +179,11 @@ def checks_table_html(checks):
 
 
 def fits_table_html():
-    """The fitted mixtures as the fitter measured them (from the data)."""
+    """The fitted mixtures as the fitter measured them (from the data), and
+    where each is fitted width by width."""
     from html import escape
+
+    from .docs import _dense
 
     from addon.core.formulas import mixtures, models
     rows = ["<table><tr><th>fit</th><th>members</th><th>max |Δ|/peak, views and lights "
@@ -192,7 +195,7 @@ def fits_table_html():
         beyond = f"{m['beyond_70']:.3f}" if m["beyond_70"] else "—"
         members = mixtures.members_text(key)
         rows.append(f"<tr><td>{escape(key)}</td><td>{escape(members)}</td>"
-                    f"<td class=\"num\">{mixtures.worst_text(key)}</td>"
+                    f"<td class=\"num\">{mixtures.worst_text(key)}{escape(_dense(key))}</td>"
                     f"<td class=\"num\">{m['max_abs_over_peak_85']:.3f}</td>"
                     f"<td class=\"num\">{m['albedo_difference_70']:.3f}</td>"
                     f"<td class=\"num\">{m['albedo_difference_85']:.3f}</td>"
@@ -208,6 +211,35 @@ def fits_table_html():
                 f"<td class=\"num\">{t['albedo_difference_70']:.3f}</td>"
                 f"<td class=\"num\">{t['albedo_difference_85']:.3f}</td>"
                 "<td class=\"num\">—</td><td>approx</td></tr>")
+    rows.append("</table>")
+    return "\n".join(rows) + "\n" + fitted_widths_html()
+
+
+def fitted_widths_html():
+    """Where each microfacet mixture is fitted, width by width, without and
+    with Fresnel (addon/core/fits/bounds.py), as the README's second table."""
+    from html import escape
+
+    from addon.core.fits import bounds
+    from addon.core.formulas import mixtures, models
+    lo, hi = bounds.DIELECTRIC_RANGE
+    rows = ["<p>Width by width, without and with the model's Fresnel: the widths where the "
+            "interval of width nodes around them measured within "
+            f"{models.FIT_BOUND:g} of the peak (<code>fitting/bounds.py</code>: both nodes and "
+            "every eighth between, views every 1.25° and lights up to 70°; the Fresnel "
+            "columns with the worst index of a grid over the class, per colour channel). "
+            "There the BSDF output is fitted, elsewhere approx.</p>",
+            "<table><tr><th>variant</th><th>without Fresnel</th>"
+            f"<th>dielectric, n from {lo:g} to {hi:g}</th>"
+            f"<th>conductor, k ≥ {bounds.CONDUCTOR_K_MIN:g}</th></tr>"]
+    for key in mixtures.FITS:
+        if key not in bounds.BOUNDS:
+            continue
+        cells = [mixtures.fitted_ranges_text(key, c) for c in ("none", "dielectric", "conductor")]
+        if all(c == "none" for c in cells):
+            continue
+        rows.append(f"<tr><td>{escape(key)}</td>"
+                    + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
     rows.append("</table>")
     return "\n".join(rows)
 
