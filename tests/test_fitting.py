@@ -1417,8 +1417,8 @@ def test_a_fitted_interval_holds_the_bound_at_held_out_widths_views_and_indices(
         if cls == "dielectric":
             F = functools.partial(FR.F_dielectric, ior=float(rng.uniform(1.0005, 10.0)))
         elif cls == "conductor":
-            F = functools.partial(FR.F_conductor, n=float(np.exp(rng.uniform(math.log(0.01), math.log(10.0)))),
-                                  k=float(rng.uniform(1.5, 20.0)))
+            n = float(np.exp(rng.uniform(math.log(0.01), math.log(10.0))))
+            F = functools.partial(FR.F_conductor, n=n, k=float(rng.uniform(1.5, 20.0)))
         else:
             F = np.ones_like
         d = list(fit.target.members).index("diffuse")

@@ -333,9 +333,10 @@ GOLD = dict(zip(("ior", "k"), catalogue.METALS["gold"]))
 def test_a_width_the_bounds_call_fitted_renders_within_its_intervals_bound(verify, api, params):
     """Per width and Fresnel (fitting/bounds.py): widths of variants whose
     worst width is over the bound, or with the model's Fresnel, that the
-    data calls fitted, in intervals measured at 0.018-0.025; on the gonio (the Fresnel cases at two half-angles),
-    views and lights up to 70 deg, on both backends, within the bound the
-    data records for the interval of width nodes around the width."""
+    data calls fitted, in intervals measured at 0.018-0.025; on the gonio
+    (the Fresnel cases at two half-angles), views and lights up to 70 deg,
+    on both backends, within the bound the data records for the interval
+    of width nodes around the width."""
     from addon.core.formulas import mixtures
     from addon.core.formulas import models as formulas
 
@@ -347,6 +348,12 @@ def test_a_width_the_bounds_call_fitted_renders_within_its_intervals_bound(verif
     assert bound <= formulas.FIT_BOUND and case.path_traced_status() == "fitted"
     for backend in ("osl", "svm"):
         r = _run(verify, api, case, "path_traced", backend)
-        print(f"\n{key} {cls} {backend}: {r['max_abs_over_peak_fit_domain']:.4f} "
-              f"(interval bound {bound:.4f})")
-        assert r["finite"] and r["max_abs_over_peak_fit_domain"] <= bound, r
+        print(f"\n{key} {cls} {backend} [{r['status']}]: "
+              f"{r['max_abs_over_peak_fit_domain']:.4f} (interval bound {bound:.4f})")
+        assert r["finite"]
+        if r["status"] != "fitted":
+            # Blender 4.5's conductor closure (the native nodes' dielectric
+            # too) has an older Fresnel: there the data's bound is not claimed
+            assert verify.blender_version() < (5, 2) and r["status"] == "approx", r
+            continue
+        assert r["max_abs_over_peak_fit_domain"] <= bound, r
