@@ -120,15 +120,8 @@ def render_fitted_widths() -> str:
     lines = ["| variant | without Fresnel | dielectric, n from "
              f"{lo:g} to {hi:g} | conductor, k ≥ {bounds.CONDUCTOR_K_MIN:g} |",
              "|---|---|---|---|"]
-    nowhere = []
-    for key in mixtures.FITS:
-        if key not in bounds.BOUNDS:
-            continue
-        cells = [mixtures.fitted_ranges_text(key, c) for c in ("none", "dielectric", "conductor")]
-        if all(c == "none" for c in cells):
-            nowhere.append(f"`{key}`")
-            continue
-        lines.append(f"| `{key}` | " + " | ".join(cells) + " |")
+    rows, nowhere = mixtures.fitted_widths_rows()
+    lines += [f"| `{key}` | " + " | ".join(cells) + " |" for key, cells in rows]
     lines.append("")
     lines.append(
         "*Generated from `addon/core/fits/bounds.py` (`fitting/bounds.py`, the last step of "
@@ -137,7 +130,7 @@ def render_fitted_widths() -> str:
         "1.25° and lights up to 70°); the Fresnel columns with the worst index of a grid over "
         "the class, per colour channel.  There the BSDF output's status is fitted, elsewhere "
         "approx (as where a width socket is linked and the Fresnel is not none).  Fitted "
-        "nowhere: " + (", ".join(nowhere) or "none") + ".*")
+        "nowhere: " + (", ".join(f"`{k}`" for k in nowhere) or "none") + ".*")
     return "\n".join(lines)
 
 

@@ -232,12 +232,7 @@ def fitted_widths_html():
             "<table><tr><th>variant</th><th>without Fresnel</th>"
             f"<th>dielectric, n from {lo:g} to {hi:g}</th>"
             f"<th>conductor, k ≥ {bounds.CONDUCTOR_K_MIN:g}</th></tr>"]
-    for key in mixtures.FITS:
-        if key not in bounds.BOUNDS:
-            continue
-        cells = [mixtures.fitted_ranges_text(key, c) for c in ("none", "dielectric", "conductor")]
-        if all(c == "none" for c in cells):
-            continue
+    for key, cells in mixtures.fitted_widths_rows()[0]:
         rows.append(f"<tr><td>{escape(key)}</td>"
                     + "".join(f"<td>{escape(c)}</td>" for c in cells) + "</tr>")
     rows.append("</table>")

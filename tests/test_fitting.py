@@ -270,7 +270,6 @@ def test_the_status_at_a_width_follows_its_intervals_bound(key):
     nodes around it measured within FIT_BOUND for the Fresnel's class
     (fitting/bounds.py), on both backends; at a node, both intervals."""
     from addon.core.fits import bounds as data
-    formula = formulas.Microfacet()
     dist, shadowing, width = key.split("/")[1:]
     entry = data.BOUNDS[key]
     nodes = entry["nodes"]

@@ -172,6 +172,23 @@ def fitted_ranges_text(key: str, fresnel_class: str) -> str:
     return ", ".join(f"α {a:.2g}–{b:.2g}" for a, b in ranges)
 
 
+def fitted_widths_rows() -> tuple:
+    """The tables of where each microfacet mixture is fitted (the README's,
+    the model page's, the report's): ``([(key, [without Fresnel,
+    dielectric, conductor]), ...], [keys fitted nowhere])``, in words."""
+    from ..fits import bounds as _bounds
+    rows, nowhere = [], []
+    for key in FITS:
+        if key not in _bounds.BOUNDS:
+            continue
+        cells = [fitted_ranges_text(key, c) for c in ("none", "dielectric", "conductor")]
+        if all(c == "none" for c in cells):
+            nowhere.append(key)
+        else:
+            rows.append((key, cells))
+    return rows, nowhere
+
+
 def width_variable(width: str, value):
     """The fit's width variable of a width parameter's value: beta itself,
     log alpha, log(1 + s)."""
