@@ -74,9 +74,10 @@ def fresnel_settings(cls):
     return [lambda c, n=n, k=k: FR.F_conductor(c, n, k) for n, k in CONDUCTOR]
 
 
-def _point(fit, value):
-    """At one width: for each class, the largest error over the peak (the
-    worst index of the class's grid)."""
+def rows_at(fit, value):
+    """At one width, per view: L.H of each light, the diffuse member's mean
+    L.H, the microfacet members' sum, the diffuse member's part and the
+    model, each without Fresnel."""
     t = fit.target
     d = list(t.members).index("diffuse")
     rows = []
@@ -92,19 +93,31 @@ def _point(fit, value):
         rows.append((np.clip(np.sum(s.wi[keep] * h, 1), 0.0, 1.0),
                      L.mean_light_half_cosine(c), A[keep] @ wd, A[keep, d] * w[d],
                      s.target[keep]))
-    out = {}
-    for cls in CLASSES:
-        worst = 0.0
-        for F in fresnel_settings(cls):
-            err = peak = 0.0
-            for cd, cbar, micro, diffuse, model in rows:
-                Fh = F(cd)
-                err = max(err, float(np.max(np.abs(Fh * (micro - model)
-                                                   + F(np.array(cbar)) * diffuse))))
-                peak = max(peak, float(np.max(Fh * model)))
-            worst = max(worst, err / peak)
-        out[cls] = worst
-    return out
+    return rows
+
+
+def class_error(rows, cls, diffuse_exact=False):
+    """The largest error over the peak for the worst index of a class's
+    grid.  ``diffuse_exact``: as if the diffuse member carried F(L.H) light
+    by light as the others do (no Cycles closure does; what the diffuse
+    member's Fresnel costs, ``python -m fitting.limits --fresnel``)."""
+    worst = 0.0
+    for F in fresnel_settings(cls):
+        err = peak = 0.0
+        for cd, cbar, micro, diffuse, model in rows:
+            Fh = F(cd)
+            Fd = Fh if diffuse_exact else F(np.array(cbar))
+            err = max(err, float(np.max(np.abs(Fh * (micro - model) + Fd * diffuse))))
+            peak = max(peak, float(np.max(Fh * model)))
+        worst = max(worst, err / peak)
+    return worst
+
+
+def _point(fit, value):
+    """At one width: for each class, the largest error over the peak (the
+    worst index of the class's grid)."""
+    rows = rows_at(fit, value)
+    return {cls: class_error(rows, cls) for cls in CLASSES}
 
 
 def intervals(fit):

@@ -3,7 +3,8 @@
 time (``python -m fitting.limits``; about 15 minutes on two cores;
 ``--shipped``: the committed data's error alone at the same widths;
 ``--capped [KEY]``: Blinn-Phong's or KEY's weights re-solved under its
-bound, what that costs in albedo).
+bound, what that costs in albedo; ``--fresnel``: what the diffuse member's
+Fresnel costs the Fresnel variants).
 
 A fitted mixture (:mod:`.mixtures`) gives its members one width per width
 node, the same at every view, and interpolates weights and widths between
@@ -214,6 +215,73 @@ def capped(key="blinn_phong"):
     return 0
 
 
+FRESNEL_KEYS = ("microfacet/blinn/smith/beta", "microfacet/gaussian/smith/beta",
+                "microfacet/gaussian/smith_correlated/beta",
+                "microfacet/trowbridge_reitz/smith/beta")
+LOBE_ALPHAS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
+
+
+def fresnel(keys=FRESNEL_KEYS):
+    """What the diffuse member's Fresnel costs (``--fresnel``; about 10
+    minutes): at each width node (up to the closures' range), the worst
+    index of each Fresnel class as the mixture carries it (the diffuse
+    member at F of the mean L.H, as :mod:`.bounds` measures it) and as it
+    would be if the diffuse member carried F(L.H) light by light, as the
+    microfacet members do; then how closely the lobes that can carry F(L.H)
+    stand in for the diffuse one (:func:`lambert_by_lobes`)."""
+    from . import bounds as B
+    print("Largest |mixture - model| over the peak, views and lights to 70 deg, at each width "
+          "node:\nwithout Fresnel; with the worst index of each class, the diffuse member's "
+          "F at the mean L.H (shipped) and at each light's L.H (no closure does that)\n")
+    print(f"{'variant':42s} {'width':>7s} {'none':>6s} {'dielectric':>17s} {'conductor':>17s}")
+    for key in keys:
+        fit = _committed(key)
+        for x in fit.width_values:
+            if x > fit.target.soft_max + 1e-12:
+                break
+            rows = B.rows_at(fit, float(x))
+            e = {(cls, exact): B.class_error(rows, cls, exact)
+                 for cls in ("dielectric", "conductor") for exact in (False, True)}
+            shown = f"{math.degrees(x):5.1f}deg" if fit.target.width == "beta" else f"{math.exp(x):7.4f}"
+            print(f"{key:42s} {shown:>7s} {B.class_error(rows, 'none'):6.3f} "
+                  f"{e['dielectric', False]:8.3f} {e['dielectric', True]:8.3f} "
+                  f"{e['conductor', False]:8.3f} {e['conductor', True]:8.3f}")
+    print("\nLambert's lobe by GGX and Beckmann lobes (alpha 0.5-1, weights free at each view): "
+          "largest |difference| over its peak, lights to 70 deg")
+    for deg, err in lambert_by_lobes():
+        print(f"view {deg:3d} deg: {err:.3f}")
+    return 0
+
+
+def lambert_by_lobes(views=VIEWS_DEG, alphas=LOBE_ALPHAS):
+    """``[(view, error)]``: the best non-negative mixture of Cycles' GGX and
+    Beckmann lobes (:mod:`.closures`, the members that carry F(L.H)) for
+    Lambert's cos(theta_i)/pi at one view, minimax over lights to 70 deg
+    every 2.5 deg of elevation and 7.5 of azimuth, over Lambert's peak."""
+    from scipy.optimize import linprog
+
+    from . import closures as CL
+    theta, phi = np.meshgrid(np.radians(np.arange(0.0, 70.01, 2.5)),
+                             np.radians(np.arange(0.0, 360.0, 7.5)))
+    wi = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
+                   np.cos(theta)], -1).reshape(-1, 3)
+    out = []
+    for deg in views:
+        t = math.radians(deg)
+        wo = np.broadcast_to(np.array([math.sin(t), 0.0, math.cos(t)]), wi.shape)
+        target = CL.diffuse(wi, wo)
+        A = np.stack([CL.microfacet(wi, wo, a, a, d) for d in ("ggx", "beckmann")
+                      for a in alphas], 1)
+        n, k = A.shape
+        # minimise e with |A w - target| <= e * peak, w >= 0
+        slack = -target.max() * np.ones((n, 1))
+        res = linprog(np.r_[np.zeros(k), 1.0],
+                      A_ub=np.vstack([np.hstack([A, slack]), np.hstack([-A, slack])]),
+                      b_ub=np.r_[target, -target], bounds=[(0, None)] * (k + 1), method="highs")
+        out.append((deg, float(res.x[-1])))
+    return out
+
+
 def _band(band):
     return "none" if band >= NO_BAND else f"{band:g}"
 
@@ -222,4 +290,6 @@ if __name__ == "__main__":
     import sys
     if sys.argv[1:2] == ["--capped"]:
         raise SystemExit(capped(*sys.argv[2:3]))
+    if sys.argv[1:] == ["--fresnel"]:
+        raise SystemExit(fresnel())
     raise SystemExit(shipped() if sys.argv[1:] == ["--shipped"] else main())

@@ -320,7 +320,10 @@ def _fidelity_lines(model_id: str) -> list:
     if model_id == "microfacet":
         lines += ["", "Any Fresnel (none, dielectric, conductor) rides on the microfacet "
                   "members (the diffuse member, which has no half vector, takes it at the "
-                  "mean L.H of the lights it reflects); the table is without it and for any "
+                  "mean L.H of the lights it reflects: one F per view, which toward the wide "
+                  "widths, where that member carries most of the lobe, is what keeps the "
+                  "Fresnel variants over the bound, python -m fitting.limits --fresnel); the "
+                  "table is without it and for any "
                   "width: exact and near keep their status with it; a fitted mixture's "
                   "status is per width and Fresnel class (the second table below: fitted "
                   "where the interval of width nodes around the width measured within the "
