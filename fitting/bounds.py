@@ -10,8 +10,9 @@ shipped mixtures (:mod:`addon.core.fits.mixtures`, read back as the
 shaders evaluate them) are measured interval by interval of their width
 nodes: at both nodes and seven points between them (every eighth), at
 views every 1.25 deg up to 70 deg (at every 2.5 deg, views between them
-measured up to 0.002 more: the weights' series peak between), lights up to 70 deg (the fitter's light
-sets), the largest |mixture - model| over the model's peak there
+measured up to 0.002 more: the weights' series peak between), lights up
+to 70 deg (the fitter's light sets), the largest |mixture - model| over
+the model's peak there
 (:data:`addon.core.formulas.models.FIT_BOUND` is the bound it is compared
 with).
 

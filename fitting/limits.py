@@ -242,7 +242,8 @@ def fresnel(keys=FRESNEL_KEYS):
             rows = B.rows_at(fit, float(x))
             e = {(cls, exact): B.class_error(rows, cls, exact)
                  for cls in ("dielectric", "conductor") for exact in (False, True)}
-            shown = f"{math.degrees(x):5.1f}deg" if fit.target.width == "beta" else f"{math.exp(x):7.4f}"
+            shown = (f"{math.degrees(x):5.1f}deg" if fit.target.width == "beta"
+                     else f"{math.exp(x):7.4f}")
             print(f"{key:42s} {shown:>7s} {B.class_error(rows, 'none'):6.3f} "
                   f"{e['dielectric', False]:8.3f} {e['dielectric', True]:8.3f} "
                   f"{e['conductor', False]:8.3f} {e['conductor', True]:8.3f}")

@@ -6,7 +6,7 @@ model| over the peak (views and lights up to 70 deg), without Fresnel
 ('dielectric', 'conductor'); None beyond the closures' range.  See
 fitting/bounds.py."""
 
-FITTER = 'ff85c59c5c040a77'
+FITTER = 'a8b86acdd3bd20e1'
 DIELECTRIC_RANGE = (1.0, 10.0)
 CONDUCTOR_K_MIN = 1.5
 BOUNDS = {
