@@ -222,8 +222,8 @@ LOBE_ALPHAS = (0.5, 0.6, 0.7, 0.8, 0.9, 1.0)
 
 
 def fresnel(keys=FRESNEL_KEYS):
-    """What the diffuse member's Fresnel costs (``--fresnel``; about 10
-    minutes): at each width node (up to the closures' range), the worst
+    """What the diffuse member's Fresnel costs (``--fresnel``; about a
+    minute): at each width node (up to the closures' range), the worst
     index of each Fresnel class as the mixture carries it (the diffuse
     member at F of the mean L.H, as :mod:`.bounds` measures it) and as it
     would be if the diffuse member carried F(L.H) light by light, as the
