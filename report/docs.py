@@ -310,6 +310,14 @@ FIDELITY_LEGEND = ("exact: a Cycles closure is the model; near: Cycles' closure 
                    "measured, no bound.")
 
 
+# Why the Fresnel variants' wide widths are approx: the model page's and the
+# report's per-width table say it in these words.
+FRESNEL_WIDE_END = ("toward the wide widths, where the diffuse member carries most of the "
+                    "lobe, its one F per view, where F(L.H) varies over the lights, is what "
+                    "keeps the Fresnel variants over the bound (python -m fitting.limits "
+                    "--fresnel)")
+
+
 def _fidelity_lines(model_id: str) -> list:
     """Per variant and backend, how the BSDF output matches the model; the
     fitter's own measurements of the fitted mixtures."""
@@ -320,9 +328,7 @@ def _fidelity_lines(model_id: str) -> list:
     if model_id == "microfacet":
         lines += ["", "Any Fresnel (none, dielectric, conductor) rides on the microfacet "
                   "members (the diffuse member, which has no half vector, takes it at the "
-                  "mean L.H of the lights it reflects: one F per view, which toward the wide "
-                  "widths, where that member carries most of the lobe, is what keeps the "
-                  "Fresnel variants over the bound, python -m fitting.limits --fresnel); the "
+                  "mean L.H of the lights it reflects: " + FRESNEL_WIDE_END + "); the "
                   "table is without it and for any "
                   "width: exact and near keep their status with it; a fitted mixture's "
                   "status is per width and Fresnel class (the second table below: fitted "

@@ -222,16 +222,16 @@ def fitted_widths_html():
 
     from addon.core.fits import bounds
     from addon.core.formulas import mixtures, models
+
+    from .docs import FRESNEL_WIDE_END
     lo, hi = bounds.DIELECTRIC_RANGE
     rows = ["<p>Width by width, without and with the model's Fresnel: the widths where the "
             "interval of width nodes around them measured within "
             f"{models.FIT_BOUND:g} of the peak (<code>fitting/bounds.py</code>: both nodes and "
             "every eighth between, views every 1.25° and lights up to 70°; the Fresnel "
             "columns with the worst index of a grid over the class, per colour channel). "
-            "There the BSDF output is fitted, elsewhere approx.  With Fresnel the wide "
-            "widths fall short because the diffuse member, which carries most of the lobe "
-            "there, takes one F per view where F(L·H) varies over the lights "
-            "(<code>python -m fitting.limits --fresnel</code>).</p>",
+            "There the BSDF output is fitted, elsewhere approx.  "
+            f"With Fresnel, {FRESNEL_WIDE_END}.</p>",
             "<table><tr><th>variant</th><th>without Fresnel</th>"
             f"<th>dielectric, n from {lo:g} to {hi:g}</th>"
             f"<th>conductor, k ≥ {bounds.CONDUCTOR_K_MIN:g}</th></tr>"]
