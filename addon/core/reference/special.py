@@ -34,13 +34,19 @@ _SERIES_TERMS = 20
 
 def clenshaw(t, coeffs):
     """sum_k coeffs[k] T_k(t) (Chebyshev polynomials of the first kind) over
-    the first axis of ``coeffs``; ``t`` broadcasts against the other axes."""
+    the first axis of ``coeffs``; ``t`` broadcasts against the other axes.
+    The recurrence b = (c + 2 t b1) - b2 runs in place, in that order of
+    operations (the same bits as written out, without a new array a step)."""
     coeffs = np.asarray(coeffs, dtype=float)
     t = np.asarray(t, dtype=float)
-    b1 = np.zeros(np.broadcast_shapes(t.shape, coeffs.shape[1:]))
-    b2 = np.zeros_like(b1)
+    shape = np.broadcast_shapes(t.shape, coeffs.shape[1:])
+    b1, b2, step = np.zeros(shape), np.zeros(shape), np.empty(shape)
+    two_t = 2.0 * t
     for c in coeffs[:0:-1]:
-        b1, b2 = c + 2.0 * t * b1 - b2, b1
+        np.multiply(two_t, b1, out=step)
+        step += c
+        np.subtract(step, b2, out=b2)
+        b1, b2 = b2, b1
     return coeffs[0] + t * b1 - b2
 
 
@@ -53,19 +59,29 @@ def _exp_minus_square(z):
     return np.where(z < 40.0, np.exp(-zh * zh) * np.exp(-(zc - zh) * (zc + zh)), 0.0)
 
 
+def _maclaurin(s):
+    """sum_n (-1)^n s^(2n+1) / (n! (2n+1)) to _SERIES_TERMS terms (erf's
+    series without its factor 2/sqrt(pi)), in place: the same operations
+    in the same order as acc += p/(2n+1); p = -p s^2/(n+1)."""
+    s2 = s * s
+    acc = np.zeros_like(s)
+    p = s.copy()
+    term = np.empty_like(s)
+    for n in range(_SERIES_TERMS):
+        np.divide(p, 2 * n + 1, out=term)
+        acc += term
+        np.negative(p, out=p)
+        p *= s2
+        p /= n + 1
+    return acc
+
+
 def _erfc_nonnegative(z):
     lo, mid = _erfc_fit.SMALL, _erfc_fit.LARGE
     out = np.empty_like(z)
     small = z < lo
     if np.any(small):
-        s = z[small]
-        s2 = s * s
-        acc = np.zeros_like(s)
-        p = s.copy()
-        for n in range(_SERIES_TERMS):
-            acc = acc + p / (2 * n + 1)
-            p = -p * s2 / (n + 1)
-        out[small] = 1.0 - _TWO_OVER_SQRT_PI * acc
+        out[small] = 1.0 - _TWO_OVER_SQRT_PI * _maclaurin(z[small])
     middle = (z >= lo) & (z < mid)
     if np.any(middle):
         s = z[middle]
@@ -87,10 +103,14 @@ def erfc(x):
     scalar = x.ndim == 0
     x = np.atleast_1d(x)
     nan = np.isnan(x)
-    z = np.where(nan, 0.0, np.abs(x))
+    any_nan = bool(nan.any())
+    z = np.where(nan, 0.0, np.abs(x)) if any_nan else np.abs(x)
     r = _erfc_nonnegative(z)
-    r = np.where(x < 0.0, 2.0 - r, r)
-    r = np.where(nan, np.nan, r)
+    negative = x < 0.0
+    if negative.any():
+        r = np.where(negative, 2.0 - r, r)
+    if any_nan:
+        r = np.where(nan, np.nan, r)
     return r[0] if scalar else r
 
 
@@ -102,14 +122,7 @@ def erf(x):
     z = np.abs(x)
     small = z < _erfc_fit.SMALL
     out = np.empty_like(x)
-    s = z[small]
-    acc = np.zeros_like(s)
-    p = s.copy()
-    s2 = s * s
-    for n in range(_SERIES_TERMS):
-        acc = acc + p / (2 * n + 1)
-        p = -p * s2 / (n + 1)
-    out[small] = _TWO_OVER_SQRT_PI * acc
+    out[small] = _TWO_OVER_SQRT_PI * _maclaurin(z[small])
     out[~small] = 1.0 - _erfc_nonnegative(np.where(np.isnan(z[~small]), 0.0, z[~small]))
     out = np.where(x < 0.0, -out, out)
     out = np.where(np.isnan(x), np.nan, out)
