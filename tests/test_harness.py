@@ -605,6 +605,32 @@ def test_render_time(bpy, tmp_path):
             assert g.last_render_seconds < 20
 
 
+def test_the_reference_benchmarks_working_memory_is_what_numpy_allocates():
+    """``make bench``'s memory column for the reference: a temporary of
+    8 MB counts, the result does not; and the reference, which evaluates a
+    batch slice by slice, needs no more for 40 slices than for 4 (its
+    working memory does not grow with the batch)."""
+    from addon import reference
+    from addon.core.reference import CHUNK
+    from verification.bench.reference import _directions, working_memory
+
+    def temporary(a, b):
+        scratch = np.ones(1_000_000)  # 8 MB, freed on return
+        return a[:, 0] + scratch[0]
+    wi, wo = _directions(40 * CHUNK, np.random.default_rng(3))
+    measured = working_memory(temporary, wi, wo)
+    assert 8e6 <= measured < 8e6 + 1e5  # the scratch, plus the few small arrays numpy makes
+
+    def shade(a, b):
+        return reference.shade("microfacet", a, b, distribution="gaussian", fresnel="conductor",
+                               ior=(1.47, 0.96, 0.62), k=(7.8, 6.7, 5.5))
+    small = working_memory(shade, wi[:4 * CHUNK], wo[:4 * CHUNK])
+    large = working_memory(shade, wi, wo)
+    print(f"reference working memory: {small / 1e6:.1f} MB for 4 slices, "
+          f"{large / 1e6:.1f} MB for 40")
+    assert large <= small + 1e6  # the slices' temporaries are freed before the next slice
+
+
 def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     """``make bench``'s render table at a toy size: every kind of row (a
     native floor, a model in both modes) renders and is reported.  Speed is

@@ -3,15 +3,17 @@
 
 Prints tables; asserts nothing (speed is measured here, never in tests):
 
-* reference: throughput of ``addon.reference.shade`` per model on one core
-  (:mod:`verification.bench.reference`);
+* reference: throughput of ``addon.reference.shade`` per model on one core,
+  and its working memory (:mod:`verification.bench.reference`);
 * render: render time of each node mode relative to the native Glossy BSDF
   (:mod:`verification.bench.render`);
 * count: the same ratio in instructions per frame under callgrind, which is
   repeatable where time is not (:mod:`verification.bench.count`; needs
   valgrind);
 * eevee: EEVEE's shader compile time per model against a Principled BSDF,
-  and the native node count per model (:mod:`verification.bench.eevee`).
+  the peak memory of a process rendering each model (EEVEE, Cycles with OSL
+  off and on), and the native node count per model
+  (:mod:`verification.bench.eevee`).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ def main(argv=None):
     parser.add_argument("--render", action="store_true", help="only the render-time table")
     parser.add_argument("--count", action="store_true", help="only the instruction-count table")
     parser.add_argument("--eevee", action="store_true",
-                        help="only the EEVEE compile-time and node-count tables")
+                        help="only the EEVEE compile-time, memory and node-count tables")
     parser.add_argument("-n", type=int, default=1_000_000, help="batch size for the reference")
     args = parser.parse_args(argv)
     every = not (args.reference or args.render or args.count or args.eevee)

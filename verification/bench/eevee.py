@@ -1,5 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""EEVEE shader compile time per model, and the native node count per model.
+"""EEVEE shader compile time per model, the peak memory of a process that
+renders each model (EEVEE, Cycles with OSL off and on), and the native node
+count per model.
 
 Compile time: EEVEE compiles a material's GPU shaders the first time it
 renders it.  For each model (native nodes: EEVEE runs no OSL), in
@@ -26,6 +28,15 @@ compiled shaders in a disk cache across processes
 (~/.cache/mesa_shader_cache): a material compiled by an earlier run would
 cost nothing here, so the cache is switched off (MESA_SHADER_CACHE_DISABLE,
 unless the caller set it).  Measures and prints; asserts nothing.
+
+Memory: the peak resident size of each of these processes at its end
+(getrusage; the Principled baseline's the median of its three), and of the same measurement in Cycles, with OSL off (SVM,
+the kernel code of the GPU devices) and on, in processes of their own.
+Before the measured material, every module of the extension (its fitted
+data among them) is imported and a material of another model is made
+(kept, on no object), so that a process's one-time costs are in the
+baseline's peak too.  No issue sets a memory target: the table is printed
+to be watched, beside the Principled baseline's.
 
 Node count: the native nodes each variant's group holds (the plan of
 addon/backends/native/emit.py, without Blender), per model at its defaults.
@@ -118,7 +129,18 @@ BASELINE_LINKS = ("Roughness", "Metallic", "IOR")  # one baseline sample each
 STEADY_FRAMES = 5  # frames after the first whose median is the render without the compile
 
 
-def _compile_seconds(mat, out_dir, resolution):
+ENGINES = ("eevee", "cycles", "cycles-osl")  # "cycles": OSL off (SVM)
+
+
+def _peak_mb():
+    """This process's peak resident size so far, in MB."""
+    import resource
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 1024  # bytes there, KiB here
+
+
+def _compile_seconds(mat, out_dir, resolution, engine="eevee"):
     """``(seconds, isolated, spread)``: the first frame of a fresh EEVEE scene with
     ``mat`` minus the median of the next STEADY_FRAMES (a single second
     frame is no baseline: a frame can take up to a second longer here), and
@@ -132,8 +154,9 @@ def _compile_seconds(mat, out_dir, resolution):
 
     frames = 1 + STEADY_FRAMES
     scene = bench_scene.build_bench_scene(mat, resolution=resolution, samples=1, frames=frames,
-                                          osl=False, name=f"eevee_{mat.name}")
-    common.configure_eevee(scene, samples=1)
+                                          osl=engine == "cycles-osl", name=f"{engine}_{mat.name}")
+    if engine == "eevee":
+        common.configure_eevee(scene, samples=1)
     times = []
     try:
         for frame in range(1, frames + 1):
@@ -165,13 +188,34 @@ def _material(api, spec):
     return mat
 
 
+def _load_extension(api, model):
+    """Import every module of the extension (its fitted data among them)
+    and make a material of ``model`` (kept, on no object), so that what
+    making the next material adds is that material's own, not the costs
+    of a process's first one."""
+    import importlib
+    import pkgutil
+
+    import addon
+    from verification.suites import verify
+
+    for module in pkgutil.walk_packages(addon.__path__, "addon."):
+        importlib.import_module(module.name)
+    api.add_model(verify.new_material("extension warm-up"), model)
+
+
 def measure_one(api, spec, *, resolution=32):
-    """In this (fresh) process: EEVEE loaded and its own shaders compiled by
-    an Emission material, then ``spec``'s material timed
-    (:func:`_compile_seconds`)."""
+    """In this (fresh) process: the engine (``spec["engine"]``, default
+    EEVEE) loaded, and EEVEE's own shaders compiled, by an Emission
+    material, then ``spec``'s material timed (:func:`_compile_seconds`).
+    Returns ``(seconds, isolated, spread, peak)``: the last, the process's
+    peak resident size in MB at the end."""
+    engine = spec.get("engine", "eevee")
     with tempfile.TemporaryDirectory(prefix="rm_eevee_") as out_dir:
-        _compile_seconds(_emission("eevee warm-up"), out_dir, resolution)
-        return _compile_seconds(_material(api, spec), out_dir, resolution)
+        _compile_seconds(_emission("warm-up"), out_dir, resolution, engine)
+        _load_extension(api, "phong" if spec.get("model") == "lambert" else "lambert")
+        timing = _compile_seconds(_material(api, spec), out_dir, resolution, engine)
+    return (*timing, _peak_mb())
 
 
 def _run_fresh(spec) -> tuple:
@@ -185,8 +229,7 @@ def _run_fresh(spec) -> tuple:
                          cwd=ROOT)
     for line in reversed(out.stdout.splitlines()):
         if line.startswith(RESULT):
-            seconds, isolated, spread = json.loads(line[len(RESULT):])
-            return seconds, isolated, spread
+            return tuple(json.loads(line[len(RESULT):]))
     raise RuntimeError(f"no result from the EEVEE measurement of {spec}:\n"
                        f"{out.stdout[-2000:]}\n{out.stderr[-2000:]}")
 
@@ -196,12 +239,18 @@ def bench(*, rows=ROWS):
     base_s = statistics.median(b[0] for b in base)
     base_isolated = sum(b[1] for b in base) >= 2
     print(f"  Principled baseline: {', '.join(f'{b[0]:.2f} s' for b in base)}", flush=True)
+    memory = {("principled", "eevee"): statistics.median(b[3] for b in base)}
+    for engine in ENGINES[1:]:
+        memory[("principled", engine)] = _run_fresh({"principled": BASELINE_LINKS[0],
+                                                     "engine": engine})[3]
     results = []
     for label, model, params in rows:
         row = {"label": label}
         for mode in ("path_traced", "exact"):
-            seconds, isolated, spread = _run_fresh({"model": model, "mode": mode,
-                                                    "params": params})
+            spec = {"model": model, "mode": mode, "params": params}
+            seconds, isolated, spread, memory[(label, mode, "eevee")] = _run_fresh(spec)
+            for engine in ENGINES[1:]:
+                memory[(label, mode, engine)] = _run_fresh({**spec, "engine": engine})[3]
             row[mode + "_s"] = seconds
             # a ratio only where both the material's and the baseline's compile showed;
             # else a bound: a compile hidden in the frames' noise is under it plus their spread
@@ -210,7 +259,25 @@ def bench(*, rows=ROWS):
                 else None
         results.append(row)
         print(f"  {label} done", flush=True)
-    return (base_s, base_isolated), results
+    return (base_s, base_isolated), results, memory
+
+
+def print_memory(memory, rows=ROWS):
+    """The memory table: each process's peak (:func:`measure_one`) per engine."""
+    print("\nPeak resident size of a process that rendered the material, MB (a warm-up, "
+          "then a new scene with it, 6 frames at 32x32, one sample), in EEVEE, Cycles with "
+          "OSL off and Cycles with OSL; then that less the Principled BSDF baseline's")
+    print(f"{'':34s} {'EEVEE':>6s} {'SVM':>6s} {'OSL':>6s}   {'EEVEE':>6s} {'SVM':>6s} {'OSL':>6s}")
+    base = [memory[("principled", engine)] for engine in ENGINES]
+
+    def line(label, key):
+        peaks = [memory[(*key, engine)] for engine in ENGINES]
+        print(f"{label:34.34s} " + " ".join(f"{p:6.0f}" for p in peaks) + "   "
+              + " ".join(f"{p - b:+6.0f}" for p, b in zip(peaks, base)))
+    line("Principled BSDF (baseline)", ("principled",))
+    for label, _model, _params in rows:
+        for mode in ("path_traced", "exact"):
+            line(f"{label} {'path traced' if mode == 'path_traced' else mode}", (label, mode))
 
 
 def print_tables(base, results, counts):
@@ -260,8 +327,9 @@ def main(argv=None):
         from addon import api
         print(RESULT + json.dumps(measure_one(api, json.loads(argv[1]))), flush=True)
         return 0
-    base, results = bench()
+    base, results, memory = bench()
     print_tables(base, results, node_counts())
+    print_memory(memory)
     import importlib.metadata
     print(f"(bpy {importlib.metadata.version('bpy')}; measured, not asserted)")
     return 0

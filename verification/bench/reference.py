@@ -2,13 +2,19 @@
 """Throughput of the numpy reference (a table of ``make bench``).
 
 Throughput of ``addon.reference.shade`` per model on one core, for a batch
-of 10^6 direction pairs, against the targets of the issue.
+of 10^6 direction pairs, against the targets of the issue; and its working
+memory: the peak of what numpy allocates during the call beyond the result
+itself (``tracemalloc``, which numpy reports to), for that batch and for one
+a tenth of its size.  The reference evaluates a large batch slice by slice
+(``CHUNK``), so its working memory should not grow with the batch: a row is
+"ok" where the larger batch's is within 1 MB of the smaller's.
 """
 
 from __future__ import annotations
 
 import math
 import time
+import tracemalloc
 
 import numpy as np
 
@@ -52,11 +58,28 @@ def _directions(n, rng):
     return hemi(), hemi()
 
 
+GROWTH_MB = 1.0  # the working memory of a batch ten times larger may exceed the smaller's by this
+
+
+def working_memory(shade, wi, wo):
+    """Bytes numpy allocates at the peak of ``shade(wi, wo)`` beyond its
+    result (traced while it runs; the inputs were allocated before)."""
+    tracemalloc.start()
+    try:
+        start = tracemalloc.get_traced_memory()[0]
+        out = shade(wi, wo)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    return peak - start - out.nbytes
+
+
 def bench_reference(n=1_000_000, repeats=3):
     from addon import reference
 
     rng = np.random.default_rng(0)
     wi, wo = _directions(n, rng)
+    small = max(n // 10, 1)
     rows = []
     for label, model, params, target in REFERENCE_CASES:
         reference.shade(model, wi[:10], wo[:10], **params)  # warm caches (tables)
@@ -66,9 +89,17 @@ def bench_reference(n=1_000_000, repeats=3):
             reference.shade(model, wi, wo, **params)
             best = min(best, time.perf_counter() - t0)
         rate = n / best
-        rows.append((label, rate, target))
-    print(f"\nReference throughput, batch of {n:,} direction pairs, one core, best of {repeats}")
-    print(f"{'model':42s} {'M eval/s':>9s} {'target':>7s}  ok")
-    for label, rate, target in rows:
-        print(f"{label:42s} {rate / 1e6:9.2f} {target / 1e6:7.1f}  {'yes' if rate >= target else 'NO'}")
+
+        def shade(a, b):
+            return reference.shade(model, a, b, **params)
+        memory = (working_memory(shade, wi, wo), working_memory(shade, wi[:small], wo[:small]))
+        rows.append((label, rate, target, memory))
+    print(f"\nReference throughput, batch of {n:,} direction pairs, one core, best of {repeats};"
+          f" working memory beyond the result, MB, for {n:,} and {small:,} pairs")
+    print(f"{'model':42s} {'M eval/s':>9s} {'target':>7s}  ok {'memory':>7s} {'/10':>6s}  ok")
+    for label, rate, target, (big, little) in rows:
+        flat = big <= little + GROWTH_MB * 1e6
+        fast = "yes" if rate >= target else "NO"
+        print(f"{label:42s} {rate / 1e6:9.2f} {target / 1e6:7.1f} {fast:>3s}"
+              f" {big / 1e6:7.1f} {little / 1e6:6.1f} {'yes' if flat else 'NO':>3s}")
     return rows
