@@ -30,8 +30,9 @@ cost nothing here, so the cache is switched off (MESA_SHADER_CACHE_DISABLE,
 unless the caller set it).  Measures and prints; asserts nothing.
 
 Memory: the peak resident size of each of these processes at its end
-(getrusage; the Principled baseline's the median of its three), and of the same measurement in Cycles, with OSL off (SVM,
-the kernel code of the GPU devices) and on, in processes of their own.
+(getrusage; the Principled baseline's the median of its three), and of
+the same measurement in Cycles, with OSL off (SVM, the kernel code of the
+GPU devices) and on, in processes of their own.
 Before the measured material, every module of the extension (its fitted
 data among them) is imported and a material of another model is made
 (kept, on no object), so that a process's one-time costs are in the
