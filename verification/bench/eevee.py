@@ -148,7 +148,10 @@ def _compile_seconds(mat, out_dir, resolution, engine="eevee"):
     whether that is more than the spread of those frames (else it is noise,
     not a compile).  The spread leaves out the slowest of them: one slow
     frame among frames that compile nothing is a hiccup of the machine (0.27 s
-    in one of 4.5's runs), and would hide every compile shorter than it."""
+    in one of 4.5's runs), and would hide every compile shorter than it.
+    ``engine`` (:data:`ENGINES`) renders the scene: EEVEE for the compile
+    table; Cycles with OSL off or on for the memory table only, which keeps
+    the process's peak and leaves these numbers unused."""
     from verification import harness as common
     from verification.scenes import bench as bench_scene
     from verification.suites import verify
