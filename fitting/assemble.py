@@ -61,7 +61,10 @@ two variants, it ships for Gaussian's), :func:`finish_moved` moves the
 members' widths node by node, each move judged by the node's series solved
 again (:mod:`.widths`), and where that does not ship by itself solves the
 moved fit's series of the nodes around its worst widths together, under
-the same rule.
+the same rule.  Last, for the variants in the Makefile's EDGE (``python -m
+tools.fit --edge --only KEY``), :func:`finish_edge` solves the series of
+the nodes around the intervals :mod:`.bounds` measures over the bound
+together again, with the lights on the domain's edge.
 
 Reproducible like the fitter (no randomness beyond :func:`.mixtures.measure`'s
 seeded widths).
@@ -406,6 +409,61 @@ def _moved_and_solved(moved: M.Fit, level: float, stage: str, log=print):
                                                level=level), log)
         if solved is not None:
             yield solved, f", {JOINT} (rise {rise:g})"
+
+
+EDGE = "the series of the nodes around its intervals over the bound re-solved together " \
+       "with the lights on the domain's edge"  # what finish_edge adds to ``how``
+
+
+def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
+    """``(fit, how)``, or the fit with the weight series of the nodes around
+    the intervals that :func:`.bounds.intervals` measures over the bound
+    without Fresnel solved together (:func:`.joint.solve`) at that
+    measure's views (every 1.25 deg) and with the lights on the domain's
+    edge (:func:`.bounds.edge_lights`) beside the fitter's light sets: the
+    steps before it saw views 5 deg apart and the light sets alone, which
+    reach the edge only here and there, where the error is often largest.
+    Interval j lies between nodes j and j + 1; those and one more on
+    either side are solved for, every width allowed to rise by RISE at the
+    programme's rows.  Ships where :func:`.bounds.intervals` (its edge
+    lights at whole degrees of azimuth, the programme's half-way between)
+    finds the worst interval without
+    Fresnel lower, no interval of any Fresnel class risen by more than
+    WIDTH_SLACK or gone over the bound from within it, and
+    :func:`.mixtures.measure` finds it no worse (:func:`_no_worse`, no width
+    worse by :func:`_worse_widths`).  ``make fit`` runs it for the variants
+    in its EDGE, after the moves."""
+    from . import bounds
+    aim = bound(fit.target)
+    if EDGE in how or not re_solved(fit.target):
+        return fit, how
+    before = bounds.intervals(fit)
+    over = [j for j, e in enumerate(before["none"]) if e is not None and e > aim]
+    if not over:
+        return fit, how
+    n = len(fit.width_values)
+    free = {i for j in over for i in range(j - 1, j + 3) if 0 <= i < n}
+    solved = joint.solve(fit, free=free, log=log, views=bounds.VIEWS_DEG,
+                         edge=bounds.edge_lights(offset=0.5))
+    if solved is None:
+        return fit, how
+    after = bounds.intervals(solved)
+
+    def worst(m):
+        return max(e for e in m["none"] if e is not None)
+
+    rose = [(cls, j, round(b, 5), round(a, 5)) for cls in bounds.CLASSES
+            for j, (b, a) in enumerate(zip(before[cls], after[cls]))
+            if b is not None and (a > b + WIDTH_SLACK or b <= aim < a)]
+    said = (f"{EDGE}: worst interval without Fresnel {worst(before):.4f} -> "
+            f"{worst(after):.4f}, measured {fit.measured['max_abs_over_peak_70']:.4f} -> "
+            f"{solved.measured['max_abs_over_peak_70']:.4f}")
+    if worst(after) < worst(before) and not rose and _no_worse(solved, fit) \
+            and not _worse_widths(solved, fit):
+        log(f"  {fit.target.key}: {said}")
+        return solved, f"{how}, {EDGE}"
+    log(f"  {fit.target.key}: {said}, risen {rose[:3]}: not used")
+    return fit, how
 
 
 def left_as_they_were(chosen: dict, committed: dict, shipped: dict) -> list:

@@ -49,6 +49,11 @@ below 0 the programme may fail: :func:`solve` returns ``None``);
 :func:`.assemble.finish` measures the result at the held-out views and
 ships it only where it measures better.
 
+:func:`.assemble.finish_edge` solves it at :mod:`.bounds`' views (every
+1.25 deg, ``views``) and with lights on the domain's edge at 70 deg
+(``edge``) beside the fitter's light sets, which reach that edge only
+here and there, though the error is often largest on it.
+
 The programme has up to millions of rows (widths x views x lights); it is
 solved by cutting planes over rows generated from per-(width, view)
 blocks, the rows that bind being few.  Deterministic (HiGHS's simplex,
@@ -60,6 +65,8 @@ committed data) can give another series of the same optimum.
 from __future__ import annotations
 
 import numpy as np
+
+from addon.core import reference as R
 
 from . import mixtures as M
 from .polish import FIT_VIEWS_DEG, GRAZING_DEG, POSITIVE_DEG, SampleCache, _cheb_row, with_series
@@ -98,7 +105,7 @@ class _Blocks:
     coefficients (the other nodes' part moved to the right-hand side),
     scaled by the width's peak."""
 
-    def __init__(self, fit, series, get, free):
+    def __init__(self, fit, series, get, free, views=FIT_VIEWS_DEG, edge=None):
         target = fit.target
         nodes = fit.width_values
         self.K, self.N = series.shape[1], series.shape[2]
@@ -132,22 +139,33 @@ class _Blocks:
             alphas = M.alphas_from_multipliers(hw @ fit.multipliers,
                                                target.equivalent_alpha(value))
             sets = []
-            for deg in FIT_VIEWS_DEG + GRAZING_DEG:
+            for deg in tuple(views) + GRAZING_DEG:
                 s = get(value, deg)
                 A, a = M._block(s, target.members, alphas)
+                A70, t70 = A[s.fit], s.target[s.fit]
+                if edge is not None and deg <= 70:  # the lights on the domain's edge too
+                    wo = np.broadcast_to(s.wo, edge.shape)
+                    A70 = np.concatenate([A70, np.nan_to_num(np.stack(
+                        [M.MEMBERS[k](edge, wo, al) for k, al in zip(target.members, alphas)],
+                        -1))])
+                    t70 = np.concatenate([t70, R.shade(target.model, edge, wo,
+                                                       **target.params(value))[:, 0]])
                 T = _cheb_row(deg, N)
-                AT = np.concatenate([hw[j] * (A[:, :, None] * T[None, None, :]).reshape(len(A), K * N)
-                                     for j in js], axis=1)
+
+                def lifted(B):
+                    return np.concatenate([hw[j] * (B[:, :, None] * T[None, None, :])
+                                           .reshape(len(B), K * N) for j in js], axis=1)
+
                 aT = np.concatenate([hw[j] * (a[:, None] * T[None, :]).reshape(K * N) for j in js])
                 w_fixed = sum((hw[j] * (series[j] @ T) for j in rest), np.zeros(K))
-                sets.append((deg, s, AT, aT, s.target - A @ w_fixed,
+                sets.append((deg, s, lifted(A), lifted(A70), aT, s.target - A @ w_fixed,
+                             t70 - A70 @ w_fixed, float(t70.max()),
                              s.target_albedo - float(a @ w_fixed)))
-            peak70 = max(float(s.target[s.fit].max()) for deg, s, *_ in sets if deg <= 70)
+            peak70 = max(p70 for deg, _s, _A, _A70, _a, _t, _t70, p70, _ta in sets if deg <= 70)
             peak85 = max(float(s.target.max()) for deg, s, *_ in sets)
-            for deg, s, AT, aT, t, ta in sets:
+            for deg, s, AT, AT70, aT, t, t70, _p70, ta in sets:
                 if deg <= 70:
-                    m = s.fit
-                    self.blocks.append((cols, AT[m] / peak70, t[m] / peak70,
+                    self.blocks.append((cols, AT70 / peak70, t70 / peak70,
                                         self.BLOCK + len(self.blocks), self.E70 + w_i))
                 self.blocks.append((cols, AT / peak85, t / peak85,
                                     self.BLOCK + len(self.blocks), self.E85 + w_i))
@@ -205,7 +223,7 @@ def region(fit: M.Fit, level=REGION, get=None):
 
 
 def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
-          albedo_weight=ALBEDO_WEIGHT):
+          albedo_weight=ALBEDO_WEIGHT, views=FIT_VIEWS_DEG, edge=None):
     """``fit`` with the weight series of the nodes ``free`` (default:
     :func:`region`) solved together (module docstring), measured; ``None``
     where the programme fails or there is nothing to solve.  ``rise``: how
@@ -224,7 +242,7 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
     if not free:
         return None
     log(f"  {target.key}: joint re-solve of nodes {sorted(free)}")
-    B = _Blocks(fit, series, get, free)
+    B = _Blocks(fit, series, get, free, views, edge)
     K, N, nv = B.K, B.N, B.nv
     W = len(B.widths)
     x0 = B.x_of(series)
@@ -251,36 +269,41 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
     h.changeColsCost(nv, np.arange(nv, dtype=np.int32), c)
 
     # fixed rows: positivity at every used node and view; the albedo band;
-    # each width's error at most T
-    fixed_rows, fixed_rhs = [], []
+    # each width's error at most T.  Built sparse (dense rows of every column
+    # took 5.6 GB for Blinn with separable Smith's sixteen nodes), the same
+    # matrix as from dense rows: zeros dropped, columns in order.
+    fixed_cols, fixed_vals, fixed_rhs = [], [], []
+
+    def fixed(cols, vals, rhs):
+        fixed_cols.append(np.asarray(cols))
+        fixed_vals.append(np.asarray(vals, float))
+        fixed_rhs.append(rhs)
+
     for n, _j in enumerate(B.used):
         for deg in POSITIVE_DEG:
             T = _cheb_row(deg, N)
             for k in range(K):
-                r = np.zeros(nv)
-                r[n * K * N + k * N:n * K * N + (k + 1) * N] = -T
-                fixed_rows.append(r)
-                fixed_rhs.append(0.0)
+                start = n * K * N + k * N
+                fixed(np.arange(start, start + N), -T, 0.0)
     for w, deg, cols, aT, ta in B.albedo:
         for sign in (1.0, -1.0):
             for excess in ((B.ALB, B.ALBW + w) if deg <= 70 else (B.ALB,)):
-                r = np.zeros(nv)
-                r[cols] = sign * aT
-                r[excess] = -1.0
-                fixed_rows.append(r)
-                fixed_rhs.append(sign * ta + ALBEDO_BAND)
+                fixed(np.append(cols, excess), np.append(sign * aT, -1.0),
+                      sign * ta + ALBEDO_BAND)
     for w in np.nonzero(B.inside)[0]:
-        r = np.zeros(nv)
-        r[B.E70 + w], r[B.T] = 1.0, -1.0
-        fixed_rows.append(r)
-        fixed_rhs.append(0.0)
+        fixed([B.E70 + w, B.T], [1.0, -1.0], 0.0)
+    rows_of = np.repeat(np.arange(len(fixed_cols)), [len(c) for c in fixed_cols])
+    vals = np.concatenate(fixed_vals)
+    keep = vals != 0.0
+    fixed_matrix = sp.csr_matrix((vals[keep], (rows_of[keep], np.concatenate(fixed_cols)[keep])),
+                                 shape=(len(fixed_cols), nv))
+    fixed_matrix.sort_indices()
     # a block's error is at most its width's: one sparse row per block (dense
     # rows of every column would take nb x nv floats)
     nb_rows = np.repeat(np.arange(nb), 2)
     nb_cols = np.array([c for *_r, b, e in B.blocks for c in (b, e)])
     links = sp.csr_matrix((np.tile([1.0, -1.0], nb), (nb_rows, nb_cols)), shape=(nb, nv))
-    _add_rows(h, sp.vstack([sp.csr_matrix(np.array(fixed_rows)), links]),
-              fixed_rhs + [0.0] * nb)
+    _add_rows(h, sp.vstack([fixed_matrix, links]), fixed_rhs + [0.0] * nb)
 
     active = [set() for _ in B.blocks]  # per block: (light, sign of the residual)
 

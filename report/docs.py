@@ -100,14 +100,17 @@ def render_fits() -> str:
 
 
 def _dense(key) -> str:
-    """Where fitting/bounds.py (views every 1.25 deg) measured the variant's
+    """Where fitting/bounds.py (denser views, and lights on the domain's
+    edge) measured the variant's
     worst width, without Fresnel, above the fitter's figure: that, for a
     table cell."""
+    from addon.core.fits import bounds
     from addon.core.formulas import mixtures
     dense = mixtures.worst_interval(key, "none")
     if dense is None or dense < mixtures.measured(key)["max_abs_over_peak_70"] + 5e-4:
         return ""
-    return f" ({dense:.4f} with views every 1.25°)"
+    return (f" ({dense:.4f} with views every {bounds.VIEW_STEP_DEG:g}° and lights on the 70° "
+            "edge)")
 
 
 def render_fitted_widths() -> str:
@@ -127,10 +130,11 @@ def render_fitted_widths() -> str:
         "*Generated from `addon/core/fits/bounds.py` (`fitting/bounds.py`, the last step of "
         "`make fit`): the widths where the interval of width nodes around them measured within "
         f"{formulas.FIT_BOUND:g} of the peak (both nodes and every eighth between, views every "
-        "1.25° and lights up to 70°); the Fresnel columns with the worst index of a grid over "
-        "the class, per colour channel.  There the BSDF output's status is fitted, elsewhere "
-        "approx (as where a width socket is linked and the Fresnel is not none).  Fitted "
-        "nowhere: " + (", ".join(f"`{k}`" for k in nowhere) or "none") + ".*")
+        f"{bounds.VIEW_STEP_DEG:g}°, lights up to 70° and on that edge); the Fresnel columns "
+        "with the worst index of a grid over the class, per colour channel.  There the BSDF "
+        "output's status is fitted, elsewhere approx (as where a width socket is linked and "
+        "the Fresnel is not none).  Fitted nowhere: "
+        + (", ".join(f"`{k}`" for k in nowhere) or "none") + ".*")
     return "\n".join(lines)
 
 

@@ -228,8 +228,9 @@ def fitted_widths_html():
     rows = ["<p>Width by width, without and with the model's Fresnel: the widths where the "
             "interval of width nodes around them measured within "
             f"{models.FIT_BOUND:g} of the peak (<code>fitting/bounds.py</code>: both nodes and "
-            "every eighth between, views every 1.25° and lights up to 70°; the Fresnel "
-            "columns with the worst index of a grid over the class, per colour channel). "
+            f"every eighth between, views every {bounds.VIEW_STEP_DEG:g}°, lights up to 70° and "
+            "on that edge; the Fresnel columns with the worst index of a grid over the class, "
+            "per colour channel). "
             "There the BSDF output is fitted, elsewhere approx.  "
             f"With Fresnel, {FRESNEL_WIDE_END}.</p>",
             "<table><tr><th>variant</th><th>without Fresnel</th>"

@@ -23,6 +23,11 @@
   interval by interval of its width nodes, without and with the model's
   Fresnel (:mod:`fitting.bounds`; about 21 minutes on two cores; ``make
   fit`` runs it last);
+- ``--edge``: the weight series of the nodes around the width intervals
+  that ``--bounds``' measure finds over the bound solved together again,
+  with the lights on the domain's edge, where that ships
+  (:func:`fitting.assemble.finish_edge`; ``make fit`` runs it for the
+  variants in its EDGE, after the moves);
 - ``--move``: the members' widths of the nodes around a Smith variant's
   worst widths moved, each node's series solved again, then those nodes'
   series solved together, where that ships (:mod:`fitting.widths`; ``make
@@ -173,6 +178,17 @@ def move(jobs=2, only=None, sweeps=None):
           todo, list(targets), jobs, committed=True)
 
 
+def edge(jobs=2, only=None):
+    """The committed module with the variants ``only`` (default: the Smith
+    variants) given :func:`fitting.assemble.finish_edge`, the others
+    kept."""
+    from fitting import assemble, mixtures
+    targets = {t.key: t for t in mixtures.targets()}
+    todo = only or [k for k, t in targets.items() if assemble.re_solved(t)]
+    _redo(functools.partial(_finish, step="finish_edge"), todo, list(targets), jobs,
+          committed=True)
+
+
 def toon(jobs=2):
     """``addon/core/fits/toon.py`` (:mod:`fitting.toon`; the fit kept by
     :func:`_kept`; ``jobs``: processes for each node's two starts)."""
@@ -296,6 +312,11 @@ def main(argv=None) -> int:
     parser.add_argument("--sweeps", type=int, default=None,
                         help="with --move: the sweeps of moves before the moved fit's series "
                              "are solved together (default fitting.widths.SWEEPS, 2)")
+    parser.add_argument("--edge", action="store_true",
+                        help="solve the weight series of the nodes around the width intervals "
+                             "over the bound together again, with the lights on the domain's edge, "
+                             "where that measures better (fitting/assemble.py's finish_edge; "
+                             "--only: those variants; make fit runs it for those in its EDGE)")
     parser.add_argument("--toon", action="store_true",
                         help="fit Phong's mixture of Toon glossy lobes for Cycles' native nodes "
                              "(fitting/toon.py) and write addon/core/fits/toon.py")
@@ -323,6 +344,9 @@ def main(argv=None) -> int:
         return 0
     if args.move:
         move(args.jobs, args.only, args.sweeps)
+        return 0
+    if args.edge:
+        edge(args.jobs, args.only)
         return 0
     if args.finish:
         finish(args.jobs, args.only, halving=args.halve)
