@@ -180,9 +180,10 @@ def test_the_mixtures_are_the_fitters_output():
             f"{key}: the reference changed since the fit: run make fit"
 
 
-# azimuths of lights on the light domain's edge (70 deg), half-way between
-# those fitting/bounds.py measures at
-EDGE_AZIMUTHS = (np.arange(180) + 0.5) * math.pi / 180.0
+# azimuths of lights on the light domain's edge (70 deg), a quarter of the
+# way between those fitting/bounds.py measures at (whole degrees) and those
+# fitting/assemble.finish_edge solves at (half degrees)
+EDGE_AZIMUTHS = (np.arange(180) + 0.25) * math.pi / 180.0
 
 
 def _lights_and_edge(fit, value, s, alphas):
@@ -1475,7 +1476,8 @@ def test_a_fitted_interval_holds_the_bound_at_held_out_widths_views_and_indices(
     (per channel: a different index in each of three draws), the mixture
     as the shaders evaluate it with the model's Fresnel within FIT_BOUND of
     the model's peak (lights up to 70 deg: the fitter's light set, and the
-    domain's edge at azimuths half-way between the measure's), no slack."""
+    domain's edge at azimuths between the measure's, EDGE_AZIMUTHS), no
+    slack."""
     from addon.core.formulas.library import mean_light_half_cosine
     from addon.core.reference import fresnel as FR
     data = _bounds()
