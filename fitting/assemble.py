@@ -427,9 +427,9 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
     either side are solved for, every width allowed to rise by RISE at the
     programme's rows.  Ships where :func:`.bounds.intervals` (its edge
     lights at whole degrees of azimuth, the programme's half-way between)
-    finds the worst interval without
-    Fresnel lower, no interval of any Fresnel class risen by more than
-    WIDTH_SLACK or gone over the bound from within it, and
+    finds the worst interval without Fresnel lower, no interval of any
+    Fresnel class risen by more than WIDTH_SLACK or gone over the bound
+    from within it, and
     :func:`.mixtures.measure` finds it no worse (:func:`_no_worse`, no width
     worse by :func:`_worse_widths`).  ``make fit`` runs it for the variants
     in its EDGE, after the moves."""

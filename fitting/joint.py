@@ -99,6 +99,17 @@ def _widths(fit):
     return sorted(out)
 
 
+def at_lights(target, value, wo, alphas, wi):
+    """At lights ``wi`` (n x 3) and one view ``wo``: each member's value at
+    its width ``alphas`` (n x members, as :func:`.mixtures._block` gives
+    them) and the model's (the lights on the domain's edge, which the
+    fitter's light sets reach only here and there)."""
+    wo = np.broadcast_to(wo, wi.shape)
+    A = np.nan_to_num(np.stack([M.MEMBERS[k](wi, wo, a) for k, a in zip(target.members, alphas)],
+                               -1))
+    return A, R.shade(target.model, wi, wo, **target.params(value))[:, 0]
+
+
 class _Blocks:
     """The programme's error rows, block by block: per (width, view) the
     matrix of the mixture at its lights as a linear map of the free nodes'
@@ -144,12 +155,8 @@ class _Blocks:
                 A, a = M._block(s, target.members, alphas)
                 A70, t70 = A[s.fit], s.target[s.fit]
                 if edge is not None and deg <= 70:  # the lights on the domain's edge too
-                    wo = np.broadcast_to(s.wo, edge.shape)
-                    A70 = np.concatenate([A70, np.nan_to_num(np.stack(
-                        [M.MEMBERS[k](edge, wo, al) for k, al in zip(target.members, alphas)],
-                        -1))])
-                    t70 = np.concatenate([t70, R.shade(target.model, edge, wo,
-                                                       **target.params(value))[:, 0]])
+                    A_edge, t_edge = at_lights(target, value, s.wo, alphas, edge)
+                    A70, t70 = np.concatenate([A70, A_edge]), np.concatenate([t70, t_edge])
                 T = _cheb_row(deg, N)
 
                 def lifted(B):

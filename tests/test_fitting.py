@@ -189,16 +189,14 @@ EDGE_AZIMUTHS = (np.arange(180) + 0.25) * math.pi / 180.0
 def _lights_and_edge(fit, value, s, alphas):
     """The lights of ``s`` up to 70 deg and those on the domain's edge at
     EDGE_AZIMUTHS: their directions, the members' values and the model's."""
-    from addon import reference as R
-    t = fit.target
+    from fitting import joint
     edge = np.stack([np.sin(M.FIT_VIEW) * np.cos(EDGE_AZIMUTHS),
                      np.sin(M.FIT_VIEW) * np.sin(EDGE_AZIMUTHS),
                      np.full_like(EDGE_AZIMUTHS, np.cos(M.FIT_VIEW))], -1)
-    wo = np.broadcast_to(s.wo, edge.shape)
-    A, _a = M._block(s, t.members, alphas)
-    A_edge = np.stack([M.MEMBERS[m](edge, wo, a) for m, a in zip(t.members, alphas)], -1)
+    A, _a = M._block(s, fit.target.members, alphas)
+    A_edge, t_edge = joint.at_lights(fit.target, value, s.wo, alphas, edge)
     return (np.concatenate([s.wi[s.fit], edge]), np.concatenate([A[s.fit], A_edge]),
-            np.concatenate([s.target[s.fit], R.shade(t.model, edge, wo, **t.params(value))[:, 0]]))
+            np.concatenate([s.target[s.fit], t_edge]))
 
 
 def _error_and_peak(fit, value, deg, edge=False):
