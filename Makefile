@@ -138,11 +138,14 @@ bench: $(STAMP)
 # in EDGE, the series of the nodes around the width intervals that
 # fitting/bounds.py measures over the bound solved together again, at its
 # views and with the lights on the domain's 70-degree edge, which the steps
-# before did not see (fitting/assemble.py's finish_edge; about 8 minutes
-# for Blinn with correlated Smith's four nodes; the separable Smith
-# variants' programmes, of twelve and sixteen nodes, were not run to the
-# end: Gaussian's took 20 minutes for two of its rounds, Blinn's ran out
-# of memory before the fixed rows were built sparse).  And Phong's
+# before did not see, one interval at a time, the nearest the bound first
+# (fitting/assemble.py's finish_edge; 2-5 minutes an interval: 36 minutes
+# for Gaussian with separable Smith's ten; Blinn with correlated Smith's
+# data comes from the step's first form, its three intervals in one
+# programme).  Not in EDGE: Trowbridge-Reitz with separable Smith (tried:
+# no interval brought within the bound, none lowered by more than 0.001)
+# and Blinn with separable Smith (its first interval tried, not kept: the
+# Fresnel intervals rose; its fourteen would take about an hour).  And Phong's
 # mixture of Toon lobes for Cycles' native nodes (fitting/toon.py; about 45 minutes, on two cores;
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
 # Last, where each microfacet mixture holds the fitted bound, interval by
@@ -156,7 +159,7 @@ MOVE ?= microfacet/gaussian/smith/beta
 MOVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE)),$(MOVE))
 MOVE_ONCE ?= microfacet/blinn/smith/beta
 MOVE_ONCE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE_ONCE)),$(MOVE_ONCE))
-EDGE ?= microfacet/blinn/smith_correlated/beta
+EDGE ?= microfacet/blinn/smith_correlated/beta microfacet/gaussian/smith/beta
 EDGE_NOW = $(if $(ONLY),$(filter $(ONLY),$(EDGE)),$(EDGE))
 TOON_NOW = $(if $(ONLY),$(filter phong,$(ONLY)),phong)
 fit: $(STAMP)

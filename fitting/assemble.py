@@ -73,7 +73,6 @@ seeded widths).
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 
@@ -202,12 +201,14 @@ def splice(fit: M.Fit, lobe: M.Fit, log=print, what="the weighted lobe", margin=
     return current, replaced
 
 
-def _no_worse(new: M.Fit, old: M.Fit) -> bool:
+def _no_worse(new: M.Fit, old: M.Fit, tie=0.0) -> bool:
     """Whether ``new`` measures no worse than ``old`` in its worst case
-    (views and lights up to 70 deg), up to 85 deg (by GRAZING_SLACK) and in
-    the directional albedo (within the target or ALBEDO_SLACK)."""
+    (views and lights up to 70 deg; ``tie``: by up to this, for a worst
+    width the step left as it was, measured again), up to 85 deg (by
+    GRAZING_SLACK) and in the directional albedo (within the target or
+    ALBEDO_SLACK)."""
     a, b = old.measured, new.measured
-    return (b["max_abs_over_peak_70"] <= a["max_abs_over_peak_70"]
+    return (b["max_abs_over_peak_70"] <= a["max_abs_over_peak_70"] + tie
             and b["max_abs_over_peak_85"] <= a["max_abs_over_peak_85"] + GRAZING_SLACK
             and b["albedo_difference_70"] <= max(ALBEDO_TARGET,
                                                  a["albedo_difference_70"] + ALBEDO_SLACK))
@@ -413,6 +414,8 @@ def _moved_and_solved(moved: M.Fit, level: float, stage: str, log=print):
 
 EDGE = "the series of the nodes around its intervals over the bound re-solved together " \
        "with the lights on the domain's edge"  # what finish_edge adds to ``how``
+TIE = 1e-9  # the fitter's worst case the same up to this: its width, away from the nodes
+            # solved for, measured again differs in the last digits (0.0327, 1e-15 up)
 
 
 def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
@@ -423,47 +426,71 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
     edge (:func:`.bounds.edge_lights`) beside the fitter's light sets: the
     steps before it saw views 5 deg apart and the light sets alone, which
     reach the edge only here and there, where the error is often largest.
-    Interval j lies between nodes j and j + 1; those and one more on
+    One interval at a time, the one nearest the bound first, each from the
+    series the ones before it left (the intervals' nodes at once: Gaussian
+    with separable Smith's twelve took 20 minutes for two of the
+    programme's rounds; one interval's four about 3 minutes in all):
+    interval j lies between nodes j and j + 1; those and one more on
     either side are solved for, every width allowed to rise by RISE at the
-    programme's rows.  Ships where :func:`.bounds.intervals` (its edge
-    lights at whole degrees of azimuth, the programme's half-way between)
-    finds the worst interval without Fresnel lower, no interval of any
-    Fresnel class risen by more than WIDTH_SLACK or gone over the bound
-    from within it, and
-    :func:`.mixtures.measure` finds it no worse (:func:`_no_worse`, no width
-    worse by :func:`_worse_widths`).  ``make fit`` runs it for the variants
-    in its EDGE, after the moves."""
+    programme's rows (where that was not kept, the same with no rise,
+    NO_RISE, measured the same to four digits on Blinn with separable
+    Smith's first interval: not tried).  A window is kept where
+    :func:`.bounds.intervals` (its edge lights at whole degrees of azimuth,
+    the programme's half-way between), at the intervals its nodes reach,
+    finds its interval without Fresnel lower, no interval of any Fresnel
+    class risen from the fit's own by more than WIDTH_SLACK or gone over
+    the bound from within it, and :func:`.mixtures.measure` finds its worst
+    case no worse than the fit's (:func:`_no_worse`).  Width by width, the
+    interval's rule stands in for :func:`_worse_widths`: :mod:`.bounds`
+    measures each interval at more views than the fitter's measure, and on
+    the edge, and it is what the status follows (Gaussian with separable
+    Smith, its interval at beta 29-35 deg: 0.0257 -> 0.0221, while the
+    fitter's light set saw beta 36-44 deg rise by up to 0.0047, to 0.0278,
+    where the bounds measured 0.0271-0.0299 before and 0.0278-0.0299
+    after).  ``make fit`` runs it for the variants in its EDGE, after the
+    moves."""
     from . import bounds
     aim = bound(fit.target)
     if EDGE in how or not re_solved(fit.target):
         return fit, how
     before = bounds.intervals(fit)
     over = [j for j, e in enumerate(before["none"]) if e is not None and e > aim]
-    if not over:
-        return fit, how
     n = len(fit.width_values)
-    free = {i for j in over for i in range(j - 1, j + 3) if 0 <= i < n}
-    solved = joint.solve(fit, free=free, log=log, views=bounds.VIEWS_DEG,
-                         edge=bounds.edge_lights(offset=0.5))
-    if solved is None:
+    now, current = {cls: list(v) for cls, v in before.items()}, fit
+    tried = set()
+    while True:
+        left = [j for j in over if j not in tried and now["none"][j] > aim]
+        if not left:
+            break
+        j = min(left, key=lambda i: now["none"][i])
+        tried.add(j)
+        free = {i for i in range(j - 1, j + 3) if 0 <= i < n}
+        reach = set(range(max(0, min(free) - 1), min(n - 1, max(free) + 1)))
+        solved = joint.solve(current, free=free, log=log, views=bounds.VIEWS_DEG,
+                             edge=bounds.edge_lights(offset=0.5))
+        if solved is None:
+            continue
+        after = bounds.intervals(solved, only=reach)
+        rose = [(cls, k, round(before[cls][k], 5), round(after[cls][k], 5))
+                for cls in bounds.CLASSES for k in sorted(reach)
+                if before[cls][k] is not None
+                and (after[cls][k] > before[cls][k] + WIDTH_SLACK
+                     or before[cls][k] <= aim < after[cls][k])]
+        old, new = now["none"][j], after["none"][j]
+        said = (f"{EDGE}, interval {j}: without Fresnel {old:.4f} -> {new:.4f}, measured "
+                f"{fit.measured['max_abs_over_peak_70']:.4f} -> "
+                f"{solved.measured['max_abs_over_peak_70']:.4f}")
+        if new < old and not rose and _no_worse(solved, fit, tie=TIE):
+            log(f"  {fit.target.key}: {said}")
+            current = solved
+            for cls in bounds.CLASSES:
+                for k in reach:
+                    now[cls][k] = after[cls][k]
+        else:
+            log(f"  {fit.target.key}: {said}, risen {rose[:3]}: not used")
+    if current is fit:
         return fit, how
-    after = bounds.intervals(solved)
-
-    def worst(m):
-        return max(e for e in m["none"] if e is not None)
-
-    rose = [(cls, j, round(b, 5), round(a, 5)) for cls in bounds.CLASSES
-            for j, (b, a) in enumerate(zip(before[cls], after[cls]))
-            if b is not None and (a > b + WIDTH_SLACK or b <= aim < a)]
-    said = (f"{EDGE}: worst interval without Fresnel {worst(before):.4f} -> "
-            f"{worst(after):.4f}, measured {fit.measured['max_abs_over_peak_70']:.4f} -> "
-            f"{solved.measured['max_abs_over_peak_70']:.4f}")
-    if worst(after) < worst(before) and not rose and _no_worse(solved, fit) \
-            and not _worse_widths(solved, fit):
-        log(f"  {fit.target.key}: {said}")
-        return solved, f"{how}, {EDGE}"
-    log(f"  {fit.target.key}: {said}, risen {rose[:3]}: not used")
-    return fit, how
+    return current, f"{how}, {EDGE}"
 
 
 def left_as_they_were(chosen: dict, committed: dict, shipped: dict) -> list:

@@ -58,11 +58,11 @@ from pathlib import Path
 import numpy as np
 
 from addon.core import catalogue
-from addon.core import reference as R
 from addon.core.formulas import library as L
 from addon.core.reference import fresnel as FR
 
 from . import mixtures as M
+from .joint import at_lights
 
 POINTS = 8  # each interval at every eighth of it, both nodes included
 VIEW_STEP_DEG = 1.25
@@ -93,7 +93,6 @@ def rows_at(fit, value):
     t = fit.target
     d = list(t.members).index("diffuse")
     edge = edge_lights()
-    params = t.params(float(value))
     rows = []
     for deg in VIEWS_DEG:
         c = math.cos(math.radians(deg))
@@ -101,12 +100,10 @@ def rows_at(fit, value):
         alphas, w = M.evaluate_series(fit, float(value), c)
         A, _a = M._block(s, t.members, alphas)
         keep = s.fit
-        wo = np.broadcast_to(s.wo, edge.shape)
-        A_edge = np.nan_to_num(np.stack([M.MEMBERS[m](edge, wo, a)
-                                         for m, a in zip(t.members, alphas)], -1))
+        A_edge, model_edge = at_lights(t, float(value), s.wo, alphas, edge)
         wi = np.concatenate([s.wi[keep], edge])
         A = np.concatenate([A[keep], A_edge])
-        model = np.concatenate([s.target[keep], R.shade(t.model, edge, wo, **params)[:, 0]])
+        model = np.concatenate([s.target[keep], model_edge])
         wd = np.where(np.arange(len(w)) == d, 0.0, w)
         h = wi + s.wo
         h /= np.linalg.norm(h, axis=1, keepdims=True)
@@ -148,38 +145,39 @@ def class_error(rows, cls, diffuse_exact=False):
     return worst
 
 
-def _point(fit, value, classes=CLASSES):
+def _point(fit, value):
     """At one width: for each class, the largest error over the peak (the
     worst index of the class's grid)."""
     rows = rows_at(fit, value)
-    return {cls: class_error(rows, cls) for cls in classes}
+    return {cls: class_error(rows, cls) for cls in CLASSES}
 
 
-def intervals(fit, classes=CLASSES):
+def intervals(fit, only=None):
     """Per class, the bound of each interval between the fit's width nodes
     (the largest of its nine points); up to the closures' range
     (``target.soft_max``, alpha 1: wider is approx anyway): the interval
     that straddles it is measured up to it, those beyond are left out
-    (None)."""
+    (None).  ``only``: the intervals to measure, the others None too
+    (:func:`.assemble.finish_edge` measures those a window's nodes reach)."""
     nodes = fit.width_values
     soft = fit.target.soft_max
     points = {}
-    out = {cls: [] for cls in classes}
+    out = {cls: [] for cls in CLASSES}
     for j in range(len(nodes) - 1):
         a, b = float(nodes[j]), min(float(nodes[j + 1]), soft)
-        if a >= soft - 1e-12:
-            for cls in classes:
+        if a >= soft - 1e-12 or (only is not None and j not in only):
+            for cls in CLASSES:
                 out[cls].append(None)
             continue
-        worst = dict.fromkeys(classes, 0.0)
+        worst = dict.fromkeys(CLASSES, 0.0)
         for i in range(POINTS + 1):
             x = a + (b - a) * i / POINTS
             key = round(x, 12)
             if key not in points:
-                points[key] = _point(fit, x, classes)
-            for cls in classes:
+                points[key] = _point(fit, x)
+            for cls in CLASSES:
                 worst[cls] = max(worst[cls], points[key][cls])
-        for cls in classes:
+        for cls in CLASSES:
             out[cls].append(worst[cls])
     return out
 

@@ -1397,6 +1397,79 @@ def test_one_interval_measures_what_the_data_records():
         assert worst[cls] <= recorded <= worst[cls] + 1e-5, (cls, worst[cls], recorded)
 
 
+def test_the_bounds_measure_only_the_intervals_asked_for():
+    """fitting/assemble.finish_edge measures, after a window, only the
+    intervals its nodes reach (``only``): those give the recorded bound
+    (rounded up to 1e-5), the others None."""
+    from fitting import bounds as B
+    key = "microfacet/gaussian/smith_correlated/beta"
+    fit = M.load_fits([key])[key]
+    got = B.intervals(fit, only={9})
+    for cls in B.CLASSES:
+        recorded = _bounds().BOUNDS[key][cls][9]
+        assert got[cls][9] <= recorded <= got[cls][9] + 1e-5, (cls, got[cls][9], recorded)
+        assert [v for j, v in enumerate(got[cls]) if j != 9] == [None] * (len(got[cls]) - 1)
+
+
+def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(monkeypatch):
+    """fitting/assemble.finish_edge: the intervals over the bound one at a
+    time, the nearest first, each from what the ones before left; an
+    interval an earlier window brought under the bound is not solved for;
+    a window ships where its interval measures lower, no interval of any
+    Fresnel class rose by more than WIDTH_SLACK or went over the bound, and
+    the fitter's worst case is no worse (up to TIE: its width, untouched,
+    measured again)."""
+    from fitting import assemble, bounds, joint
+    target = {t.key: t for t in M.targets()}["microfacet/gaussian/smith/beta"]
+    fit = _trade_fit(0.03, 0.009, [0.02] * 6, target=target)
+    before = {"none": [0.02, 0.027, 0.026, 0.030, 0.02]}
+    before["dielectric"] = before["conductor"] = before["none"][:4] + [0.0245]
+    # per window (its first free node): the intervals as measured after it
+    afters = {
+        1: {"none": [0.02, 0.0245, 0.024, 0.030, 0.02]},  # interval 2, and 1 under with it
+        2: {"none": [0.02, 0.0245, 0.024, 0.028, 0.02],
+            "dielectric": [0.02, 0.0245, 0.024, 0.028, 0.0249]},  # within 0.025: ships
+    }
+    frees, starts = [], []
+
+    def solve(current, free, log, views, edge):
+        frees.append(sorted(free))
+        starts.append(current)
+        out = _trade_fit(0.03 + 1e-15, 0.009, [0.02] * 6, target=target)
+        out.window = len(frees)
+        return out
+
+    def intervals(f, only=None):
+        if only is None:
+            return {cls: list(before[cls]) for cls in bounds.CLASSES}
+        got = afters.get(f.window, afters[1])
+        return {cls: list(got.get(cls, got["none"])) for cls in bounds.CLASSES}
+
+    monkeypatch.setattr(joint, "solve", solve)
+    monkeypatch.setattr(bounds, "intervals", intervals)
+    out, how = assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+    # interval 2 first; 1 then under the bound
+    assert frees == [[1, 2, 3, 4], [2, 3, 4, 5]]
+    assert starts[0] is fit and starts[1].window == 1
+    assert out.window == 2 and how == f"fitted, {assemble.EDGE}"
+    # the same second window with a dielectric interval gone over the bound
+    # (up by less than WIDTH_SLACK): not used
+    afters[2]["dielectric"][4] = 0.0251
+    frees.clear()
+    starts.clear()
+    out, how = assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+    assert out.window == 1 and how == f"fitted, {assemble.EDGE}"
+    # the fitter's worst case up by more than TIE: nothing ships, and every
+    # interval over the bound is tried, each from the fit
+    monkeypatch.setattr(assemble, "TIE", 0.0)
+    frees.clear()
+    starts.clear()
+    out, how = assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+    assert out is fit and how == "fitted"
+    assert frees == [[1, 2, 3, 4], [0, 1, 2, 3], [2, 3, 4, 5]]
+    assert all(s is fit for s in starts)
+
+
 def test_the_bounds_measure_the_edge_of_the_light_domain():
     """fitting/bounds.py's lights are the fitter's light set and the edge of
     the domain (lights at 70 deg, every degree of azimuth): the error is

@@ -25,7 +25,8 @@
   fit`` runs it last);
 - ``--edge``: the weight series of the nodes around the width intervals
   that ``--bounds``' measure finds over the bound solved together again,
-  with the lights on the domain's edge, where that ships
+  with the lights on the domain's edge, one interval at a time, where that
+  ships
   (:func:`fitting.assemble.finish_edge`; ``make fit`` runs it for the
   variants in its EDGE, after the moves);
 - ``--move``: the members' widths of the nodes around a Smith variant's
