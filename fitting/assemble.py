@@ -429,7 +429,7 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
     One interval at a time, the one nearest the bound first, each from the
     series the ones before it left (the intervals' nodes at once: Gaussian
     with separable Smith's twelve took 20 minutes for two of the
-    programme's rounds; one interval's four about 3 minutes in all):
+    programme's rounds; one interval's four 2-5 minutes in all):
     interval j lies between nodes j and j + 1; those and one more on
     either side are solved for, every width allowed to rise by RISE at the
     programme's rows (where that was not kept, the same with no rise,

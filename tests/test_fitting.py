@@ -1424,7 +1424,7 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     fit = _trade_fit(0.03, 0.009, [0.02] * 6, target=target)
     before = {"none": [0.02, 0.027, 0.026, 0.030, 0.02]}
     before["dielectric"] = before["conductor"] = before["none"][:4] + [0.0245]
-    # per window (its first free node): the intervals as measured after it
+    # per window, in the order solved: the intervals as measured after it
     afters = {
         1: {"none": [0.02, 0.0245, 0.024, 0.030, 0.02]},  # interval 2, and 1 under with it
         2: {"none": [0.02, 0.0245, 0.024, 0.028, 0.02],
