@@ -110,6 +110,16 @@ def at_lights(target, value, wo, alphas, wi):
     return A, R.shade(target.model, wi, wo, **target.params(value))[:, 0]
 
 
+def with_edge(target, value, s, A, alphas, edge):
+    """The lights of the sample set ``s`` up to 70 deg and the lights
+    ``edge`` on the domain's edge: their directions, the members' values
+    (``A``: at ``s``' lights, as :func:`.mixtures._block` gives them) and
+    the model's."""
+    A_edge, t_edge = at_lights(target, value, s.wo, alphas, edge)
+    return (np.concatenate([s.wi[s.fit], edge]), np.concatenate([A[s.fit], A_edge]),
+            np.concatenate([s.target[s.fit], t_edge]))
+
+
 class _Blocks:
     """The programme's error rows, block by block: per (width, view) the
     matrix of the mixture at its lights as a linear map of the free nodes'
@@ -155,8 +165,7 @@ class _Blocks:
                 A, a = M._block(s, target.members, alphas)
                 A70, t70 = A[s.fit], s.target[s.fit]
                 if edge is not None and deg <= 70:  # the lights on the domain's edge too
-                    A_edge, t_edge = at_lights(target, value, s.wo, alphas, edge)
-                    A70, t70 = np.concatenate([A70, A_edge]), np.concatenate([t70, t_edge])
+                    _wi, A70, t70 = with_edge(target, value, s, A, alphas, edge)
                 T = _cheb_row(deg, N)
 
                 def lifted(B):

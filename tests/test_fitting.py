@@ -189,14 +189,11 @@ EDGE_AZIMUTHS = (np.arange(180) + 0.25) * math.pi / 180.0
 def _lights_and_edge(fit, value, s, alphas):
     """The lights of ``s`` up to 70 deg and those on the domain's edge at
     EDGE_AZIMUTHS: their directions, the members' values and the model's."""
-    from fitting import joint
-    edge = np.stack([np.sin(M.FIT_VIEW) * np.cos(EDGE_AZIMUTHS),
-                     np.sin(M.FIT_VIEW) * np.sin(EDGE_AZIMUTHS),
-                     np.full_like(EDGE_AZIMUTHS, np.cos(M.FIT_VIEW))], -1)
+    from fitting import bounds, joint
+    edge = bounds.edge_lights(offset=0.25)
+    assert np.allclose(np.arctan2(edge[:, 1], edge[:, 0]), EDGE_AZIMUTHS, atol=1e-12)
     A, _a = M._block(s, fit.target.members, alphas)
-    A_edge, t_edge = joint.at_lights(fit.target, value, s.wo, alphas, edge)
-    return (np.concatenate([s.wi[s.fit], edge]), np.concatenate([A[s.fit], A_edge]),
-            np.concatenate([s.target[s.fit], t_edge]))
+    return joint.with_edge(fit.target, value, s, A, alphas, edge)
 
 
 def _error_and_peak(fit, value, deg, edge=False):

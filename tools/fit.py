@@ -172,22 +172,25 @@ def move(jobs=2, only=None, sweeps=None):
     Smith variants) given :func:`fitting.assemble.finish_moved` (``sweeps``
     sweeps of moves; default :data:`fitting.widths.SWEEPS`), the others
     kept."""
-    from fitting import assemble, mixtures, widths
-    targets = {t.key: t for t in mixtures.targets()}
-    todo = only or [k for k, t in targets.items() if assemble.re_solved(t)]
-    _redo(functools.partial(_finish, step="finish_moved", sweeps=sweeps or widths.SWEEPS),
-          todo, list(targets), jobs, committed=True)
+    from fitting import widths
+    _smith_step(jobs, only, step="finish_moved", sweeps=sweeps or widths.SWEEPS)
 
 
 def edge(jobs=2, only=None):
     """The committed module with the variants ``only`` (default: the Smith
     variants) given :func:`fitting.assemble.finish_edge`, the others
     kept."""
+    _smith_step(jobs, only, step="finish_edge")
+
+
+def _smith_step(jobs, only, **options):
+    """The committed module with the variants ``only`` (default: the Smith
+    variants, :func:`fitting.assemble.re_solved`) given :func:`_finish`
+    with ``options``, the others kept."""
     from fitting import assemble, mixtures
     targets = {t.key: t for t in mixtures.targets()}
     todo = only or [k for k, t in targets.items() if assemble.re_solved(t)]
-    _redo(functools.partial(_finish, step="finish_edge"), todo, list(targets), jobs,
-          committed=True)
+    _redo(functools.partial(_finish, **options), todo, list(targets), jobs, committed=True)
 
 
 def toon(jobs=2):
@@ -315,9 +318,10 @@ def main(argv=None) -> int:
                              "are solved together (default fitting.widths.SWEEPS, 2)")
     parser.add_argument("--edge", action="store_true",
                         help="solve the weight series of the nodes around the width intervals "
-                             "over the bound together again, with the lights on the domain's edge, "
-                             "where that measures better (fitting/assemble.py's finish_edge; "
-                             "--only: those variants; make fit runs it for those in its EDGE)")
+                             "over the bound together again, with the lights on the domain's "
+                             "edge, one interval at a time, where that measures better "
+                             "(fitting/assemble.py's finish_edge; --only: those variants; make "
+                             "fit runs it for those in its EDGE)")
     parser.add_argument("--toon", action="store_true",
                         help="fit Phong's mixture of Toon glossy lobes for Cycles' native nodes "
                              "(fitting/toon.py) and write addon/core/fits/toon.py")
