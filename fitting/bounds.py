@@ -128,12 +128,13 @@ def edge_lights(n=EDGE_AZIMUTHS, offset=0.0):
     return np.stack([s * np.cos(phi), s * np.sin(phi), np.full_like(phi, c)], -1)
 
 
-def class_error(rows, cls, diffuse_exact=False):
-    """The largest error over the peak for the worst index of a class's
-    grid.  ``diffuse_exact``: as if the diffuse member carried F(L.H) light
-    by light as the others do (no Cycles closure does; what the diffuse
-    member's Fresnel costs, ``python -m fitting.limits --fresnel``)."""
-    worst = 0.0
+def setting_errors(rows, cls, diffuse_exact=False):
+    """The largest error over the peak for each index of a class's grid
+    (in :func:`fresnel_settings`' order).  ``diffuse_exact``: as if the
+    diffuse member carried F(L.H) light by light as the others do (no
+    Cycles closure does; what the diffuse member's Fresnel costs,
+    ``python -m fitting.limits --fresnel``)."""
+    out = []
     for F in fresnel_settings(cls):
         err = peak = 0.0
         for cd, cbar, micro, diffuse, model in rows:
@@ -141,8 +142,33 @@ def class_error(rows, cls, diffuse_exact=False):
             Fd = Fh if diffuse_exact else F(np.array(cbar))
             err = max(err, float(np.max(np.abs(Fh * (micro - model) + Fd * diffuse))))
             peak = max(peak, float(np.max(Fh * model)))
-        worst = max(worst, err / peak)
-    return worst
+        out.append(err / peak)
+    return out
+
+
+def class_error(rows, cls, diffuse_exact=False):
+    """The largest error over the peak for the worst index of a class's
+    grid (:func:`setting_errors`)."""
+    return max(setting_errors(rows, cls, diffuse_exact))
+
+
+def worst_settings(fit, only):
+    """For each Fresnel class, F for the index of its grid that errs most
+    at some point of the intervals ``only`` (as :func:`intervals` measures
+    them), each index once: the ones :func:`.assemble.finish_edge` holds
+    in its programme."""
+    nodes, soft = fit.width_values, fit.target.soft_max
+    picked = set()
+    for j in sorted(only):
+        a, b = float(nodes[j]), min(float(nodes[j + 1]), soft)
+        if a >= soft - 1e-12:
+            continue
+        for i in range(POINTS + 1):
+            rows = rows_at(fit, a + (b - a) * i / POINTS)
+            for cls in CLASSES[1:]:
+                errors = setting_errors(rows, cls)
+                picked.add((cls, int(np.argmax(errors))))
+    return [fresnel_settings(cls)[i] for cls, i in sorted(picked)]
 
 
 def _point(fit, value):
