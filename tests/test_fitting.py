@@ -551,7 +551,8 @@ def test_the_joint_programme_with_fresnel_sees_what_the_bounds_measure(monkeypat
     measure's edge lights, each width's error with a dielectric (n = 1.5)
     and a conductor (n = 0.2, k = 3) the programme computes is the
     measure's for that index (Blinn with separable Smith, its node at beta
-    48.6 deg, where the dielectric error is twice the one without)."""
+    48.6 deg, where the dielectric's error is 0.043 and the one without
+    Fresnel 0.028)."""
     from fitting import bounds as B
     from fitting import joint, polish
     key = "microfacet/blinn/smith/beta"
@@ -569,7 +570,7 @@ def test_the_joint_programme_with_fresnel_sees_what_the_bounds_measure(monkeypat
     for f, (cls, i) in enumerate(settings):
         measured = [B.setting_errors(B.rows_at(fit, v), cls)[i] for v in blocks.widths]
         assert np.allclose(errors[f], measured, rtol=1e-9, atol=1e-12), (cls, errors[f], measured)
-    assert np.max(errors[0]) > 1.5 * np.max(none), (errors[0], none)
+    assert np.max(errors[0]) > 1.4 * np.max(none), (errors[0], none)
 
 
 def test_the_joint_re_solve_holds_the_error_with_fresnel():
