@@ -1484,11 +1484,21 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     interval an earlier window brought under the bound is not solved for;
     a window ships where its interval measures lower, no interval of any
     Fresnel class rose by more than WIDTH_SLACK or went over the bound, and
-    the fitter's worst case is no worse (up to TIE: its width, untouched,
-    measured again)."""
+    the fitter's measure finds no width over the fit's worst case (by more
+    than TIE) that the bounds of the intervals it lies in, after the
+    window, put lower."""
     from fitting import assemble, bounds, joint
     target = {t.key: t for t in M.targets()}["microfacet/gaussian/smith/beta"]
-    fit = _trade_fit(0.03, 0.009, [0.02] * 6, target=target)
+    nodes = tuple(0.1 + 0.2 * i for i in range(6))  # radians, all within the closures' range
+
+    def stand_in(worst, per_width):
+        out = _trade_fit(worst, 0.009, [0.02] * 6, target=target)
+        out.width_values = nodes
+        out.measured["per_width"] = [(f"{math.degrees(x):.2f} deg", e, 0.2, 0.0)
+                                     for x, e in per_width]
+        return out
+
+    fit = stand_in(0.027, [(x, 0.02) for x in nodes])
     before = {"none": [0.02, 0.027, 0.026, 0.030, 0.02]}
     before["dielectric"] = before["conductor"] = before["none"][:4] + [0.0245]
     # per window, in the order solved: the intervals as measured after it
@@ -1497,14 +1507,19 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
         2: {"none": [0.02, 0.0245, 0.024, 0.028, 0.02],
             "dielectric": [0.02, 0.0245, 0.024, 0.028, 0.0249]},  # within 0.025: ships
     }
+    # per window, what the fitter's measure finds: window 2 over the fit's
+    # worst at the node between intervals 2 and 3, which the bound of 3 sees
+    found = {1: [(0.4, 0.02)], 2: [(nodes[3], 0.0275)]}
     frees, starts, held = [], [], []
 
     def solve(current, free, log, views, edge, bound, fresnel):
         frees.append(sorted(free))
         starts.append(current)
         held.append((bound, fresnel))
-        out = _trade_fit(0.03 + 1e-15, 0.009, [0.02] * 6, target=target)
-        out.window = len(frees)
+        window = len(frees)
+        got = found.get(window, found[1])
+        out = stand_in(max(e for _x, e in got), got)
+        out.window = window
         return out
 
     def intervals(f, only=None):
@@ -1516,10 +1531,15 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     def worst_settings(f, only):  # a stand-in for the Fresnel indices held
         return [(getattr(f, "window", None), sorted(only))]
 
+    def run():
+        frees.clear()
+        starts.clear()
+        return assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+
     monkeypatch.setattr(joint, "solve", solve)
     monkeypatch.setattr(bounds, "intervals", intervals)
     monkeypatch.setattr(bounds, "worst_settings", worst_settings)
-    out, how = assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+    out, how = run()
     # interval 2 first; 1 then under the bound
     assert frees == [[1, 2, 3, 4], [2, 3, 4, 5]]
     assert starts[0] is fit and starts[1].window == 1
@@ -1530,19 +1550,26 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     # the same second window with a dielectric interval gone over the bound
     # (up by less than WIDTH_SLACK): not used
     afters[2]["dielectric"][4] = 0.0251
-    frees.clear()
-    starts.clear()
-    out, how = assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+    out, how = run()
     assert out.window == 1 and how == f"fitted, {assemble.EDGE}"
-    # the fitter's worst case up by more than TIE: nothing ships, and every
-    # interval over the bound is tried, each from the fit
-    monkeypatch.setattr(assemble, "TIE", 0.0)
-    frees.clear()
-    starts.clear()
-    out, how = assemble.finish_edge(fit, "fitted", log=lambda _m: None)
+    # ... or with the fitter's measure over the bounds of both intervals
+    # the width lies in: not used either
+    afters[2]["dielectric"][4] = 0.0249
+    found[2] = [(nodes[3], 0.0281)]
+    out, how = run()
+    assert out.window == 1 and frees == [[1, 2, 3, 4], [2, 3, 4, 5]]
+    # a width the fitter measures over the fit's worst by more than TIE,
+    # inside interval 1 (0.0245 after the first window): nothing ships, and
+    # every interval over the bound is tried, each from the fit
+    found[1] = [(0.4, 0.027 + 2 * assemble.TIE)]
+    out, how = run()
     assert out is fit and how == "fitted"
     assert frees == [[1, 2, 3, 4], [0, 1, 2, 3], [2, 3, 4, 5]]
     assert all(s is fit for s in starts)
+    # ... within TIE of it: the first window ships again
+    found[1] = [(0.4, 0.027 + 0.5 * assemble.TIE)]
+    out, how = run()
+    assert out.window == 1
 
 
 def test_the_bounds_measure_the_edge_of_the_light_domain():
