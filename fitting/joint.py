@@ -69,6 +69,7 @@ committed data) can give another series of the same optimum.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -125,6 +126,32 @@ def with_edge(target, value, s, A, alphas, edge):
     A_edge, t_edge = at_lights(target, value, s.wo, alphas, edge)
     return (np.concatenate([s.wi[s.fit], edge]), np.concatenate([A[s.fit], A_edge]),
             np.concatenate([s.target[s.fit], t_edge]))
+
+
+class _FresnelRows(NamedTuple):
+    """Under one Fresnel, at one view: the lifted rows, the model less the
+    fixed nodes' part, and the model's peak there."""
+    lifted: np.ndarray
+    target: np.ndarray
+    peak: float
+
+
+class _View(NamedTuple):
+    """One view of one width, as :class:`_Blocks` builds its rows: the
+    lifted matrices (the mixture's values at the sample set's lights, and
+    up to 70 deg with the edge's), the albedo row, each target less the
+    fixed nodes' part, the model's peak up to 70 deg, and per Fresnel its
+    lifted rows, target and peak."""
+    deg: float
+    s: object
+    lifted: np.ndarray
+    lifted70: np.ndarray
+    albedo_row: np.ndarray
+    target: np.ndarray
+    target70: np.ndarray
+    peak70: float
+    albedo: float
+    with_fresnel: list
 
 
 class _Blocks:
@@ -186,19 +213,20 @@ class _Blocks:
 
                 aT = np.concatenate([hw[j] * (a[:, None] * T[None, :]).reshape(K * N) for j in js])
                 w_fixed = sum((hw[j] * (series[j] @ T) for j in rest), np.zeros(K))
-                with_fresnel = []  # per Fresnel: the lifted rows, the model less the fixed part
+                with_fresnel = []  # per Fresnel, its rows
                 if deg <= 70:
                     for F in fresnel:
                         S = _fresnel_scales(F, wi70, s.wo, deg, K, diffuse)
-                        with_fresnel.append((lifted(A70 * S), S[:, 0] * t70 - (A70 * S) @ w_fixed,
-                                             float(np.max(S[:, 0] * t70))))
-                sets.append((deg, s, lifted(A), lifted(A70), aT, s.target - A @ w_fixed,
-                             t70 - A70 @ w_fixed, float(t70.max()),
-                             s.target_albedo - float(a @ w_fixed), with_fresnel))
-            near = [st for st in sets if st[0] <= 70]
-            peak70 = max(st[7] for st in near)
-            peak85 = max(float(s.target.max()) for deg, s, *_ in sets)
-            peaks = [max(st[9][f][2] for st in near) for f in range(self.n_fresnel)]
+                        with_fresnel.append(_FresnelRows(lifted(A70 * S),
+                                                         S[:, 0] * t70 - (A70 * S) @ w_fixed,
+                                                         float(np.max(S[:, 0] * t70))))
+                sets.append(_View(deg, s, lifted(A), lifted(A70), aT, s.target - A @ w_fixed,
+                                  t70 - A70 @ w_fixed, float(t70.max()),
+                                  s.target_albedo - float(a @ w_fixed), with_fresnel))
+            near = [v for v in sets if v.deg <= 70]
+            peak70 = max(v.peak70 for v in near)
+            peak85 = max(float(v.s.target.max()) for v in sets)
+            peaks = [max(v.with_fresnel[f].peak for v in near) for f in range(self.n_fresnel)]
             for deg, s, AT, AT70, aT, t, t70, _p70, ta, with_fresnel in sets:
                 if deg <= 70:
                     self.blocks.append((cols, AT70 / peak70, t70 / peak70,
