@@ -141,16 +141,16 @@ bench: $(STAMP)
 # before did not see, one interval at a time, the nearest the bound first
 # (fitting/assemble.py's finish_edge; 2-7 minutes an interval: 36 minutes
 # for Gaussian with separable Smith's ten), the error under the Fresnel
-# indices that err most there held from rising.  The shipped data comes
-# from earlier forms of the step: Blinn with correlated Smith's from the
-# first (its three intervals in one programme), Gaussian with separable
-# Smith's from the second (no Fresnel held; the step run again with it
-# lowered one interval by 0.0004 and brought none within the bound: not
-# shipped).  Not in EDGE: Trowbridge-Reitz with separable Smith (tried:
-# no interval brought within the bound, none lowered by more than 0.001)
-# and Blinn with separable Smith (its first interval tried, not kept: the
-# fitter's worst case rose, and without the Fresnel held the dielectric
-# intervals; its fourteen would take about an hour and a half).  And Phong's
+# indices that err most there held from rising, the fitter's worst case
+# allowed to rise only where fitting/bounds.py sees the rise (an hour for
+# Blinn with separable Smith's fourteen, on two cores).  Blinn with
+# separable Smith's data comes from this form; the others' from earlier
+# ones: Blinn with correlated Smith's from the first (its three intervals
+# in one programme), Gaussian with separable Smith's from the second (no
+# Fresnel held; the step run again with it lowered one interval by 0.0004
+# and brought none within the bound: not shipped).  Not in EDGE:
+# Trowbridge-Reitz with separable Smith (tried: no interval brought within
+# the bound, none lowered by more than 0.001).  And Phong's
 # mixture of Toon lobes for Cycles' native nodes (fitting/toon.py; about 45 minutes, on two cores;
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
 # Last, where each microfacet mixture holds the fitted bound, interval by
@@ -164,7 +164,8 @@ MOVE ?= microfacet/gaussian/smith/beta
 MOVE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE)),$(MOVE))
 MOVE_ONCE ?= microfacet/blinn/smith/beta
 MOVE_ONCE_NOW = $(if $(ONLY),$(filter $(ONLY),$(MOVE_ONCE)),$(MOVE_ONCE))
-EDGE ?= microfacet/blinn/smith_correlated/beta microfacet/gaussian/smith/beta
+EDGE ?= microfacet/blinn/smith/beta microfacet/blinn/smith_correlated/beta \
+        microfacet/gaussian/smith/beta
 EDGE_NOW = $(if $(ONLY),$(filter $(ONLY),$(EDGE)),$(EDGE))
 TOON_NOW = $(if $(ONLY),$(filter phong,$(ONLY)),phong)
 fit: $(STAMP)

@@ -20,7 +20,8 @@ The fitter's light sets are the mirror images of a grid of half vectors,
 which reach the domain's edge (lights at 70 deg) only here and there, and
 the error is often largest on it, at grazing lights.  Without the edge
 the measure missed up to 0.004 of the peak there (Blinn with separable
-Smith, beta 73.8 deg: 0.0250 at the 70 deg view, 0.0289 on the edge), and
+Smith as shipped before its edge step, beta 73.8 deg: 0.0250 at the 70
+deg view, 0.0289 on the edge), and
 rose and fell by up to 0.002 from one view to the next, 0.3125 deg apart,
 as the grid's lights came near the edge and left it.
 
@@ -62,7 +63,7 @@ from addon.core.formulas import library as L
 from addon.core.reference import fresnel as FR
 
 from . import mixtures as M
-from .joint import at_lights
+from .joint import fresnel_cosines, with_edge
 
 POINTS = 8  # each interval at every eighth of it, both nodes included
 VIEW_STEP_DEG = 1.25
@@ -87,9 +88,9 @@ def fresnel_settings(cls):
 
 
 def rows_at(fit, value):
-    """At one width, per view: L.H of each light, the diffuse member's mean
-    L.H, the microfacet members' sum, the diffuse member's part and the
-    model, each without Fresnel."""
+    """At one width, per view: L.H of each light and the diffuse member's
+    mean L.H (:func:`.joint.fresnel_cosines`), the microfacet members'
+    sum, the diffuse member's part and the model, each without Fresnel."""
     t = fit.target
     d = list(t.members).index("diffuse")
     edge = edge_lights()
@@ -99,16 +100,9 @@ def rows_at(fit, value):
         s = M.samples(t, float(value), c)
         alphas, w = M.evaluate_series(fit, float(value), c)
         A, _a = M._block(s, t.members, alphas)
-        keep = s.fit
-        A_edge, model_edge = at_lights(t, float(value), s.wo, alphas, edge)
-        wi = np.concatenate([s.wi[keep], edge])
-        A = np.concatenate([A[keep], A_edge])
-        model = np.concatenate([s.target[keep], model_edge])
+        wi, A, model = with_edge(t, float(value), s, A, alphas, edge)
         wd = np.where(np.arange(len(w)) == d, 0.0, w)
-        h = wi + s.wo
-        h /= np.linalg.norm(h, axis=1, keepdims=True)
-        rows.append((np.clip(np.sum(wi * h, 1), 0.0, 1.0),
-                     L.mean_light_half_cosine(c), A @ wd, A[:, d] * w[d], model))
+        rows.append((*fresnel_cosines(wi, s.wo, c), A @ wd, A[:, d] * w[d], model))
     return rows
 
 
@@ -120,8 +114,8 @@ def edge_lights(n=EDGE_AZIMUTHS, offset=0.0):
     a step (:func:`.assemble.finish_edge` solves at others than these).  The
     fitter's light set reaches that edge only where its half-vector grid
     happens to, and the error is often largest there: Blinn with separable
-    Smith at beta 73.8 deg, view 70 deg, 0.0250 of the peak on the light
-    set alone and 0.0289 on the edge."""
+    Smith as shipped before its edge step, at beta 73.8 deg, view 70 deg,
+    0.0250 of the peak on the light set alone and 0.0289 on the edge."""
     phi = (np.arange(n) + offset) * math.pi / (n - 1)
     phi = phi[phi <= math.pi + 1e-12]
     s, c = math.sin(M.FIT_VIEW), math.cos(M.FIT_VIEW)

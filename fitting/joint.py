@@ -216,10 +216,10 @@ class _Blocks:
                 with_fresnel = []  # per Fresnel, its rows
                 if deg <= 70:
                     for F in fresnel:
-                        S = _fresnel_scales(F, wi70, s.wo, deg, K, diffuse)
+                        Fm, S = _fresnel_scales(F, wi70, s.wo, deg, K, diffuse)
                         with_fresnel.append(_FresnelRows(lifted(A70 * S),
-                                                         S[:, 0] * t70 - (A70 * S) @ w_fixed,
-                                                         float(np.max(S[:, 0] * t70))))
+                                                         Fm * t70 - (A70 * S) @ w_fixed,
+                                                         float(np.max(Fm * t70))))
                 sets.append(_View(deg, s, lifted(A), lifted(A70), aT, s.target - A @ w_fixed,
                                   t70 - A70 @ w_fixed, float(t70.max()),
                                   s.target_albedo - float(a @ w_fixed), with_fresnel))
@@ -275,17 +275,26 @@ class _Blocks:
         return out
 
 
-def _fresnel_scales(F, wi, wo, deg, K, diffuse):
-    """Per light (rows) and member (columns), what the Fresnel ``F`` scales
-    the member's value by, as :mod:`.bounds` measures it: F(L.H) for the
-    model and every microfacet member, F at the mean L.H of the view
-    (:func:`addon.core.formulas.library.mean_light_half_cosine`) for the
-    diffuse member, column ``diffuse``."""
+def fresnel_cosines(wi, wo, cos_view):
+    """Where a mixture's Fresnel is taken, as :mod:`.bounds` measures it:
+    L.H for each light ``wi`` (n x 3; the model's and every microfacet
+    member's, each at its own half vector, the same one) and, for the
+    diffuse member, which has none, the mean L.H of the lights the view
+    reflects (:func:`addon.core.formulas.library.mean_light_half_cosine`)."""
     h = wi + wo
     h = h / np.linalg.norm(h, axis=1, keepdims=True)
-    S = np.repeat(F(np.clip(np.sum(wi * h, 1), 0.0, 1.0))[:, None], K, axis=1)
-    S[:, diffuse] = F(np.array(L.mean_light_half_cosine(math.cos(math.radians(deg)))))
-    return S
+    return np.clip(np.sum(wi * h, 1), 0.0, 1.0), L.mean_light_half_cosine(cos_view)
+
+
+def _fresnel_scales(F, wi, wo, deg, K, diffuse):
+    """What the Fresnel ``F`` scales the model by, per light, and each
+    member's value, per light (rows) and member (columns; ``diffuse`` the
+    diffuse member's), at :func:`fresnel_cosines`."""
+    cd, cbar = fresnel_cosines(wi, wo, math.cos(math.radians(deg)))
+    model = F(cd)
+    S = np.repeat(model[:, None], K, axis=1)
+    S[:, diffuse] = F(np.array(cbar))
+    return model, S
 
 
 def _add_rows(h, rows, upper):

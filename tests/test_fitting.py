@@ -578,15 +578,17 @@ def test_the_joint_re_solve_holds_the_error_with_fresnel():
     error under them rise by more than RISE at the programme's rows, nor
     past the bound from within it; without them it lets it rise.  Made on
     committed data as fitting/assemble.finish_edge solves it (Blinn with
-    separable Smith, its node at beta 48.6 deg solved alone at the views 60,
+    separable Smith, its node at beta 79.4 deg, whose window the edge step
+    refused for a dielectric interval's rise, solved alone at the views 60,
     65 and 70 deg with the lights on the edge, the error with a dielectric
-    of n = 1.5 held): without Fresnel the error falls from 0.0283 to
-    0.0268 and the dielectric's rises by 0.0069."""
+    of n = 1.5 held): without Fresnel the error falls from 0.0256 to
+    0.0248 held, 0.0246 not, and the dielectric's rises by 0.0039 not
+    held."""
     from fitting import bounds as B
     from fitting import joint, polish
     key = "microfacet/blinn/smith/beta"
     fit = M.load_fits([key])[key]
-    j = 17
+    j = 28
     get = polish.SampleCache(fit.target)
     F = [B.fresnel_settings("dielectric")[B.DIELECTRIC.index(1.5)]]
     where = dict(views=(60.0, 65.0, 70.0), edge=B.edge_lights(offset=0.5))
@@ -603,7 +605,7 @@ def test_the_joint_re_solve_holds_the_error_with_fresnel():
                              **where)
         assert solved is not None
         after, now = errors(solved)
-        assert after.max() < none.max() - 0.001, (none.max(), after.max())
+        assert after.max() < none.max() - 0.0005, (none.max(), after.max())
         rises.append(float(np.max(now - was)))
         if fresnel:
             # 1e-6: HiGHS's feasibility per row
@@ -1102,8 +1104,9 @@ def test_a_width_move_is_judged_by_the_nodes_series_solved_again():
     with the node's series solved for the widths (fitting.polish._solve_node,
     its neighbours as they are), the second member's width moved down by
     exp(-0.1) lowers the node's window's error (lights to 70 deg, views
-    between the measured ones) by more than 0.001 of the peak (0.0246 ->
-    0.0234 when written), and, checked through the shaders' own
+    between the measured ones) by more than 5e-4 of the peak, five times
+    the step's GAIN (0.0246 -> 0.0234 when written; 0.0246 -> 0.0239 with
+    the neighbours' series the edge step left), and, checked through the shaders' own
     evaluation, no width of the window errs more than it did before the
     move by more than the step's limits (the joint re-solve's RISE up to
     70 deg, GRAZING_RISE up to 85), at the views the step solves at."""
@@ -1124,7 +1127,7 @@ def test_a_width_move_is_judged_by_the_nodes_series_solved_again():
     limits = [e + (joint.RISE if k % 2 == 0 else joint.GRAZING_RISE) for k, e in enumerate(now)]
     z = z_before + np.array([0.0, -0.1, 0.0, 0.0])
     moved, coef, _n = widths._window(fit, fit.multipliers, series, j, z, get, limits)
-    assert coef is not None and moved < own - 1e-3, (own, moved)
+    assert coef is not None and moved < own - 5 * widths.GAIN, (own, moved)
     primary, secondary = polish._window(fit, j)
     views = widths.VIEWS_DEG + widths.GRAZING_DEG
     before = _window_errors(fit, primary + secondary, get, views)
@@ -1576,13 +1579,15 @@ def test_the_bounds_measure_the_edge_of_the_light_domain():
     """fitting/bounds.py's lights are the fitter's light set and the edge of
     the domain (lights at 70 deg, every degree of azimuth): the error is
     often largest on the edge, which the light set reaches only here and
-    there.  At Blinn with separable Smith, beta 73.8 deg (a width node), the
-    light set alone errs at most 0.0265 of the peak, the edge 0.0285 or
-    more (its docstring: 0.0250 and 0.0289 at the 70 deg view)."""
+    there.  At Gaussian with separable Smith, beta 85 deg (its widest
+    node), the light set alone errs at most 0.0295 of the peak, the edge
+    0.031 or more (0.0290 and 0.0313 when written; Blinn with separable
+    Smith, as shipped before its edge step, 0.0250 and 0.0289 at 73.8
+    deg, fitting/bounds.py's docstring)."""
     from fitting import bounds as B
-    key = "microfacet/blinn/smith/beta"
+    key = "microfacet/gaussian/smith/beta"
     fit = M.load_fits([key])[key]
-    x = min(fit.width_values, key=lambda v: abs(v - math.radians(73.8)))
+    x = min(fit.width_values, key=lambda v: abs(v - math.radians(85.0)))
     rows = B.rows_at(fit, float(x))
     n = B.EDGE_AZIMUTHS
     edge = B.edge_lights()
@@ -1590,7 +1595,7 @@ def test_the_bounds_measure_the_edge_of_the_light_domain():
     assert np.allclose(np.linalg.norm(edge, axis=1), 1.0)
     grid = [tuple(a[:-n] if np.ndim(a) else a for a in r) for r in rows]
     with_edge, without = B.class_error(rows, "none"), B.class_error(grid, "none")
-    assert without <= 0.0265 and with_edge >= 0.0285, (without, with_edge)
+    assert without <= 0.0295 and with_edge >= 0.031, (without, with_edge)
 
 
 def test_the_mean_light_half_cosine_is_the_integral():
