@@ -143,7 +143,11 @@ bench: $(STAMP)
 # for Gaussian with separable Smith's ten), the error under the Fresnel
 # indices that err most there held from rising, the fitter's worst case
 # allowed to rise only where fitting/bounds.py sees the rise (an hour for
-# Blinn with separable Smith's fourteen, on two cores).  Blinn with
+# Blinn with separable Smith's fourteen intervals over the bound, on two
+# cores: ten windows, nine kept, four intervals brought within the bound
+# by their neighbours' windows; then a second pass from what the first
+# left, up to EDGE_PASSES, 11 minutes: one window, every interval within
+# the bound).  Blinn with
 # separable Smith's data comes from this form; the others' from earlier
 # ones: Blinn with correlated Smith's from the first (its three intervals
 # in one programme), Gaussian with separable Smith's from the second (no

@@ -36,7 +36,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 19  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 20  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -74,6 +74,8 @@ NODES_VERSION = 19  # 2: a closure-only shader feeds the BSDF output;
 # 19: Blinn with separable Smith's mixture re-solved with the lights on the
 #    domain's edge, one interval at a time, the error under Fresnel held:
 #    groups saved before get the new data
+# 20: ... and a second pass of that step over what the first left (every
+#    width within the bound without Fresnel): groups saved before get it
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

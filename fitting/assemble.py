@@ -421,6 +421,7 @@ def _moved_and_solved(moved: M.Fit, level: float, stage: str, log=print):
 
 EDGE = "the series of the nodes around its intervals over the bound re-solved together " \
        "with the lights on the domain's edge"  # what finish_edge adds to ``how``
+EDGE_PASSES = 3  # finish_edge's passes at most, each while the one before kept a window
 TIE = 1e-9  # the fitter's worst case the same up to this: its width, away from the nodes
             # solved for, measured again differs in the last digits (0.0327, 1e-15 up)
 
@@ -483,7 +484,8 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
     from within it (without it, windows were refused because a dielectric
     interval rose: Blinn with separable Smith at beta 46-49 deg, 0.0324 ->
     0.0351; held, 0.0324 -> 0.0317 and 0.0271 -> 0.0257 without Fresnel,
-    not kept either: the fitter's worst case rose, 0.0249 -> 0.0257).  A
+    which the fitter's worst case rising 0.0249 -> 0.0257 refused until
+    the rule below let it rise where the bounds see it).  A
     window is kept where
     :func:`.bounds.intervals` (its edge lights at whole degrees of azimuth,
     the programme's half-way between), at the intervals its nodes reach,
@@ -505,12 +507,33 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
     Smith, its interval at beta 29-35 deg: 0.0257 -> 0.0221, while the
     fitter's light set saw beta 36-44 deg rise by up to 0.0047, to 0.0278,
     where the bounds measured 0.0271-0.0299 before and 0.0278-0.0299
-    after).  ``make fit`` runs it for the variants in its EDGE, after the
-    moves."""
-    from . import bounds
-    aim = bound(fit.target)
+    after).  Then, while a pass kept a window and up to EDGE_PASSES
+    passes, the same again from what it left, each pass's rules measured
+    from its own start, so a Fresnel class's interval may rise by
+    WIDTH_SLACK a pass (Blinn with separable Smith: the second pass kept
+    the window at beta 77-79 deg that the first had refused, and with it
+    every interval came within the bound without Fresnel; the dielectric
+    interval at 79-82 deg rose 0.0029 over the two passes, 0.1685 ->
+    0.1715, approx there, where one pass alone refused that rise).  ``make fit`` runs it for the
+    variants in its EDGE, after the moves."""
     if EDGE in how or not re_solved(fit.target):
         return fit, how
+    current = fit
+    for _ in range(EDGE_PASSES):
+        passed = _edge_pass(current, log)
+        if passed is current:
+            break
+        current = passed
+    if current is fit:
+        return fit, how
+    return current, f"{how}, {EDGE}"
+
+
+def _edge_pass(fit: M.Fit, log) -> M.Fit:
+    """One pass of :func:`finish_edge` over the intervals over the bound:
+    the fit its kept windows left, or ``fit`` itself where none was kept."""
+    from . import bounds
+    aim = bound(fit.target)
     before = bounds.intervals(fit)
     over = [j for j, e in enumerate(before["none"]) if e is not None and e > aim]
     n = len(fit.width_values)
@@ -550,9 +573,7 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
         else:
             log(f"  {fit.target.key}: {said}, risen {rose[:3]}, over the bounds "
                 f"{unseen[:3]}: not used")
-    if current is fit:
-        return fit, how
-    return current, f"{how}, {EDGE}"
+    return current
 
 
 def left_as_they_were(chosen: dict, committed: dict, shipped: dict) -> list:

@@ -577,18 +577,18 @@ def test_the_joint_re_solve_holds_the_error_with_fresnel():
     """With Fresnel indices given, fitting/joint.py's solve lets no width's
     error under them rise by more than RISE at the programme's rows, nor
     past the bound from within it; without them it lets it rise.  Made on
-    committed data as fitting/assemble.finish_edge solves it (Blinn with
-    separable Smith, its node at beta 79.4 deg, whose window the edge step
-    refused for a dielectric interval's rise, solved alone at the views 60,
-    65 and 70 deg with the lights on the edge, the error with a dielectric
-    of n = 1.5 held): without Fresnel the error falls from 0.0256 to
-    0.0248 held, 0.0246 not, and the dielectric's rises by 0.0039 not
-    held."""
+    committed data as fitting/assemble.finish_edge solves it (Gaussian with
+    separable Smith, its node at beta 79.4 deg, solved alone at the views
+    60, 65 and 70 deg with the lights on the edge, the error with a
+    dielectric of n = 1.5 held): without Fresnel the error falls from
+    0.0343 to 0.0332 held, 0.0325 not, and the dielectric's rises by
+    0.0048 not held.  (Written on Blinn with separable Smith's node at
+    48.6 deg, 0.0283 -> 0.0268 and 0.0069, before its edge step.)"""
     from fitting import bounds as B
     from fitting import joint, polish
-    key = "microfacet/blinn/smith/beta"
+    key = "microfacet/gaussian/smith/beta"
     fit = M.load_fits([key])[key]
-    j = 28
+    j = 14
     get = polish.SampleCache(fit.target)
     F = [B.fresnel_settings("dielectric")[B.DIELECTRIC.index(1.5)]]
     where = dict(views=(60.0, 65.0, 70.0), edge=B.edge_lights(offset=0.5))
@@ -1489,7 +1489,8 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     Fresnel class rose by more than WIDTH_SLACK or went over the bound, and
     the fitter's measure finds no width over the fit's worst case (by more
     than TIE) that the bounds of the intervals it lies in, after the
-    window, put lower."""
+    window, put lower; a pass that kept a window is followed by another
+    from what it left."""
     from fitting import assemble, bounds, joint
     target = {t.key: t for t in M.targets()}["microfacet/gaussian/smith/beta"]
     nodes = tuple(0.1 + 0.2 * i for i in range(6))  # radians, all within the closures' range
@@ -1526,7 +1527,7 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
         return out
 
     def intervals(f, only=None):
-        if only is None:
+        if only is None and getattr(f, "window", None) is None:
             return {cls: list(before[cls]) for cls in bounds.CLASSES}
         got = afters.get(f.window, afters[1])
         return {cls: list(got.get(cls, got["none"])) for cls in bounds.CLASSES}
@@ -1542,6 +1543,14 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     monkeypatch.setattr(joint, "solve", solve)
     monkeypatch.setattr(bounds, "intervals", intervals)
     monkeypatch.setattr(bounds, "worst_settings", worst_settings)
+    # a second pass from what the first left: interval 3, still over the
+    # bound, solved again from window 2's fit; it rises (stand-in: 0.030),
+    # nothing kept, so no third pass
+    out, how = run()
+    assert frees == [[1, 2, 3, 4], [2, 3, 4, 5], [2, 3, 4, 5]]
+    assert starts[2].window == 2 and out.window == 2
+    monkeypatch.setattr(assemble, "EDGE_PASSES", 1)  # one pass, for the rules below
+    held.clear()
     out, how = run()
     # interval 2 first; 1 then under the bound
     assert frees == [[1, 2, 3, 4], [2, 3, 4, 5]]
