@@ -514,8 +514,8 @@ def finish_edge(fit: M.Fit, how: str, log=print) -> tuple:
     the window at beta 77-79 deg that the first had refused, and with it
     every interval came within the bound without Fresnel; the dielectric
     interval at 79-82 deg rose 0.0029 over the two passes, 0.1685 ->
-    0.1715, approx there, where one pass alone refused that rise).  ``make fit`` runs it for the
-    variants in its EDGE, after the moves."""
+    0.1715, approx there, where one pass alone refused that rise).
+    ``make fit`` runs it for the variants in its EDGE, after the moves."""
     if EDGE in how or not re_solved(fit.target):
         return fit, how
     current = fit

@@ -227,17 +227,17 @@ class _Blocks:
             peak70 = max(v.peak70 for v in near)
             peak85 = max(float(v.s.target.max()) for v in sets)
             peaks = [max(v.with_fresnel[f].peak for v in near) for f in range(self.n_fresnel)]
-            for deg, s, AT, AT70, aT, t, t70, _p70, ta, with_fresnel in sets:
-                if deg <= 70:
-                    self.blocks.append((cols, AT70 / peak70, t70 / peak70,
+            for v in sets:
+                if v.deg <= 70:
+                    self.blocks.append((cols, v.lifted70 / peak70, v.target70 / peak70,
                                         self.BLOCK + len(self.blocks), self.E70 + w_i))
-                self.blocks.append((cols, AT / peak85, t / peak85,
+                self.blocks.append((cols, v.lifted / peak85, v.target / peak85,
                                     self.BLOCK + len(self.blocks), self.E85 + w_i))
-                for f, (ATF, tF, _pF) in enumerate(with_fresnel):
-                    fresnel_blocks.append((cols, ATF / peaks[f], tF / peaks[f],
+                for f, rows in enumerate(v.with_fresnel):
+                    fresnel_blocks.append((cols, rows.lifted / peaks[f], rows.target / peaks[f],
                                            self.EF + f * W + w_i))
                 if self.inside[w_i]:
-                    self.albedo.append((w_i, deg, cols, aT, ta))
+                    self.albedo.append((w_i, v.deg, cols, v.albedo_row, v.albedo))
         first = self.BLOCK + len(self.blocks)
         self.fresnel_blocks = [(cols, Mx, t, first + b, e)
                                for b, (cols, Mx, t, e) in enumerate(fresnel_blocks)]
