@@ -1584,6 +1584,26 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     assert out.window == 1
 
 
+@pytest.mark.parametrize("key", ["microfacet/gaussian/smith/beta",
+                                 "microfacet/beckmann/smith/alpha", "blinn_phong"])
+def test_the_edge_step_reads_the_fitters_labels_back_into_widths(key):
+    """The edge step's rule reads :func:`.mixtures.measure`'s per-width
+    labels back into widths (``assemble._width_of``): across each kind of
+    width (beta in degrees, alpha, the exponent) a label, as the measure
+    writes it, names its width within the tolerance the step allows, and
+    that tolerance is under a fifth of the closest two nodes' spacing, so
+    a width read back lies in the intervals it was measured in."""
+    from fitting import assemble
+    fit = M.load_fits([key])[key]
+    lo, hi = fit.target.domain
+    rng = np.random.default_rng(5)  # random widths: an even grid may fall on the rounding
+    values = np.concatenate([rng.uniform(lo, hi, 400), [lo, hi], fit.width_values])
+    for v in values:
+        x, near = assemble._width_of(fit.target, M._show(fit.target, float(v)))
+        assert abs(x - v) <= near, (key, v, x, near)
+    assert near < 0.2 * float(np.min(np.diff(fit.width_values))), (key, near)
+
+
 def test_the_bounds_measure_the_edge_of_the_light_domain():
     """fitting/bounds.py's lights are the fitter's light set and the edge of
     the domain (lights at 70 deg, every degree of azimuth): the error is
