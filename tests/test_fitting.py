@@ -1490,7 +1490,7 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     the fitter's measure finds no width over the fit's worst case (by more
     than TIE) that the bounds of the intervals it lies in, after the
     window, put lower; a pass that kept a window is followed by another
-    from what it left."""
+    from what it left, up to EDGE_PASSES passes."""
     from fitting import assemble, bounds, joint
     target = {t.key: t for t in M.targets()}["microfacet/gaussian/smith/beta"]
     nodes = tuple(0.1 + 0.2 * i for i in range(6))  # radians, all within the closures' range
@@ -1582,6 +1582,18 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     found[1] = [(0.4, 0.027 + 0.5 * assemble.TIE)]
     out, how = run()
     assert out.window == 1
+    # every pass keeps a window (interval 3 lower each time, still over the
+    # bound): the passes stop at EDGE_PASSES, each from the one before
+    monkeypatch.setattr(assemble, "EDGE_PASSES", 3)
+    found.clear()
+    found[1] = [(0.4, 0.02)]
+    for cls in bounds.CLASSES:
+        before[cls] = [0.02, 0.02, 0.02, 0.030, 0.02]
+    afters.clear()
+    afters.update({w: {"none": [0.02, 0.02, 0.02, 0.030 - 0.001 * w, 0.02]} for w in range(1, 6)})
+    out, how = run()
+    assert frees == [[2, 3, 4, 5]] * 3 and out.window == 3
+    assert [s.window for s in starts[1:]] == [1, 2] and how == f"fitted, {assemble.EDGE}"
 
 
 @pytest.mark.parametrize("key", ["microfacet/gaussian/smith/beta",
