@@ -577,18 +577,21 @@ def test_the_joint_re_solve_holds_the_error_with_fresnel():
     """With Fresnel indices given, fitting/joint.py's solve lets no width's
     error under them rise by more than RISE at the programme's rows, nor
     past the bound from within it; without them it lets it rise.  Made on
-    committed data as fitting/assemble.finish_edge solves it (Gaussian with
-    separable Smith, its node at beta 79.4 deg, solved alone at the views
+    committed data as fitting/assemble.finish_edge solves it (Blinn with
+    no shadowing, its node at beta 45.8 deg, solved alone at the views
     60, 65 and 70 deg with the lights on the edge, the error with a
     dielectric of n = 1.5 held): without Fresnel the error falls from
-    0.0343 to 0.0332 held, 0.0325 not, and the dielectric's rises by
-    0.0048 not held.  (Written on Blinn with separable Smith's node at
-    48.6 deg, 0.0283 -> 0.0268 and 0.0069, before its edge step.)"""
+    0.320 to 0.293 held, 0.292 not, and the dielectric's rises by 0.0225
+    not held.  (Written on Blinn with separable Smith's node at 48.6 deg,
+    0.0283 -> 0.0268 and 0.0069, before its edge step; then on Gaussian
+    with separable Smith's at 79.4 deg, 0.0343 -> 0.0332 and 0.0048,
+    before its second edge step left nothing there to lower; this
+    variant's data is not in the edge step.)"""
     from fitting import bounds as B
     from fitting import joint, polish
-    key = "microfacet/gaussian/smith/beta"
+    key = "microfacet/blinn/none/beta"
     fit = M.load_fits([key])[key]
-    j = 14
+    j = 8
     get = polish.SampleCache(fit.target)
     F = [B.fresnel_settings("dielectric")[B.DIELECTRIC.index(1.5)]]
     where = dict(views=(60.0, 65.0, 70.0), edge=B.edge_lights(offset=0.5))
@@ -1620,15 +1623,16 @@ def test_the_bounds_measure_the_edge_of_the_light_domain():
     """fitting/bounds.py's lights are the fitter's light set and the edge of
     the domain (lights at 70 deg, every degree of azimuth): the error is
     often largest on the edge, which the light set reaches only here and
-    there.  At Gaussian with separable Smith, beta 85 deg (its widest
-    node), the light set alone errs at most 0.0295 of the peak, the edge
-    0.031 or more (0.0290 and 0.0313 when written; Blinn with separable
-    Smith, as shipped before its edge step, 0.0250 and 0.0289 at 73.8
-    deg, fitting/bounds.py's docstring)."""
+    there.  At Gaussian with V-groove, beta 57 deg (a node; its data is
+    not in the edge step), the light set alone errs at most 0.2 of the
+    peak, the edge 0.25 or more (0.1974 and 0.2546 when written; Gaussian
+    with separable Smith at 85 deg, 0.0290 and 0.0313, before its second
+    edge step; Blinn with separable Smith, as shipped before its edge
+    step, 0.0250 and 0.0289 at 73.8 deg, fitting/bounds.py's docstring)."""
     from fitting import bounds as B
-    key = "microfacet/gaussian/smith/beta"
+    key = "microfacet/gaussian/vgroove/beta"
     fit = M.load_fits([key])[key]
-    x = min(fit.width_values, key=lambda v: abs(v - math.radians(85.0)))
+    x = min(fit.width_values, key=lambda v: abs(v - math.radians(57.0)))
     rows = B.rows_at(fit, float(x))
     n = B.EDGE_AZIMUTHS
     edge = B.edge_lights()
@@ -1636,7 +1640,7 @@ def test_the_bounds_measure_the_edge_of_the_light_domain():
     assert np.allclose(np.linalg.norm(edge, axis=1), 1.0)
     grid = [tuple(a[:-n] if np.ndim(a) else a for a in r) for r in rows]
     with_edge, without = B.class_error(rows, "none"), B.class_error(grid, "none")
-    assert without <= 0.0295 and with_edge >= 0.031, (without, with_edge)
+    assert without <= 0.2 and with_edge >= 0.25, (without, with_edge)
 
 
 def test_the_mean_light_half_cosine_is_the_integral():
