@@ -147,13 +147,12 @@ bench: $(STAMP)
 # cores: ten windows, nine kept, four intervals brought within the bound
 # by their neighbours' windows; then a second pass from what the first
 # left, up to EDGE_PASSES, 11 minutes: one window, every interval within
-# the bound).  Blinn's and Gaussian's with
-# separable Smith's data come from this form (Gaussian's run from the data
-# of an earlier form, one interval at a time with no Fresnel held; the
-# three passes in 87 minutes on one core: its worst
-# interval 0.0343 -> 0.0317, none brought within the bound); Blinn with
-# correlated Smith's from the first (its three intervals in one
-# programme).  Not in EDGE:
+# the bound).  The data of Blinn and of Gaussian with separable Smith
+# comes from this form (Gaussian's run from the data of an earlier form,
+# one interval at a time with no Fresnel held; three passes, 87 minutes
+# on one core: its worst interval 0.0343 -> 0.0317, none brought within
+# the bound); Blinn with correlated Smith's from the first form (its
+# three intervals in one programme).  Not in EDGE:
 # Trowbridge-Reitz with separable Smith (tried: no interval brought within
 # the bound, none lowered by more than 0.001).  And Phong's
 # mixture of Toon lobes for Cycles' native nodes (fitting/toon.py; about 45 minutes, on two cores;
