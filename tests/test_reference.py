@@ -578,6 +578,42 @@ def test_no_nan_for_degenerate_directions():
         assert np.all(np.isfinite(out)), model
 
 
+def test_grazing_directions_almost_opposite_stay_finite_and_non_negative():
+    """Near grazing with L and E almost opposite, sqrt(2 + 2 L.E) cancelled to
+    0 (Blinn-Phong's N.H overflowed to inf), L.H came out negative by rounding
+    (V-groove's G, and the pixel, went negative: -1.2e8) and Ward's hz * hz
+    and ci * co underflowed (NaN).  The half vector there is the normal."""
+    rng = np.random.default_rng(12)
+    phi = rng.uniform(0.0, 2 * math.pi, 400)
+    zi = 10.0 ** rng.uniform(-14, -2, 400)
+    zo = zi * 10.0 ** rng.uniform(-3, 3, 400)
+    wi = np.stack([np.cos(phi), np.sin(phi), zi], -1)
+    wo = np.stack([-np.cos(phi), -np.sin(phi), zo], -1)
+    for model, params in surface_cases():
+        for f in (R.shade, R.brdf):
+            out = f(model, wi, wo, **params)
+            assert np.all(np.isfinite(out)) and np.all(out >= 0.0), (f.__name__, model, params)
+
+
+@pytest.mark.parametrize("z", [1e-3, 1e-9, 1e-200])
+def test_symmetric_grazing_pair_has_the_normal_as_half_vector(z):
+    """L = (s, 0, z), E = (-s, 0, z): H = N and L.H = N.L = z, so Blinn-Phong's
+    f is ks, V-groove's G is 1 (shade D(N) / (4 z)) and Ward's shade is
+    ks / (4 pi ax ay): values from the geometry, not from the code."""
+    s = math.sqrt(1.0 - z * z)
+    wi, wo = np.array([s, 0.0, z]), np.array([-s, 0.0, z])
+    assert R.brdf("blinn_phong", wi, wo, exponent=200.0, ks=0.7)[0] == pytest.approx(0.7)
+    ax, ay = 0.3, 0.1
+    ward = R.shade("ward", wi, wo, alpha_x=ax, alpha_y=ay)[0]
+    assert ward == pytest.approx(1.0 / (4 * math.pi * ax * ay), rel=1e-12)
+    if z > 1e-100:  # D(N) / (4 z) overflows nothing down to here
+        beta = 20 * DEG
+        vg = R.shade("microfacet", wi, wo, distribution="gaussian", shadowing="vgroove",
+                     beta=beta)[0]
+        d_n = R.Gaussian(beta=beta).D(0.0, 0.0, 1.0)
+        assert vg == pytest.approx(d_n / (4 * z), rel=1e-9)
+
+
 def test_tangent_along_the_normal_falls_back_like_the_shader():
     """Isotropic models ignore the tangent, so a tangent parallel to a per-pixel
     normal must not fail; the fallback matches osl/rm_common.h (x axis, or y

@@ -120,9 +120,12 @@ def brdf_blinn_phong(li, lo, wdot, v):
     """ks (N.H)^s, N.H = (N.L + N.E)/|L + E|; 'energy': times (s+8)/(8 pi),
     the usual approximate normalisation (not a bound)."""
     s = v["exponent"]
+    # |L + E| from the summed components, not sqrt(2 + 2 L.E): near grazing
+    # with L and E almost opposite, 2 + 2 L.E cancels to 0 and N.H overflowed
+    hx, hy, hz = li[0] + lo[0], li[1] + lo[1], li[2] + lo[2]
     with np.errstate(divide="ignore", invalid="ignore"):
-        ch = (li[2] + lo[2]) / np.sqrt(np.maximum(2.0 + 2.0 * wdot, 1e-300))
-    f = _lobe(ch, s)
+        ch = hz / np.sqrt(hx * hx + hy * hy + hz * hz)
+    f = _lobe(np.minimum(ch, 1.0), s)
     if v["normalization"] == "energy":
         f = f * ((s + 8.0) / (8.0 * PI))
     return np.where(_upper(li[2], lo[2]), f, 0.0)[..., None] * v["ks"]
@@ -144,9 +147,11 @@ def brdf_microfacet(li, lo, wdot, v):
     ci, co = li[2], lo[2]
     hx, hy, hz = li[0] + lo[0], li[1] + lo[1], li[2] + lo[2]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        inv = 1.0 / np.sqrt(hx * hx + hy * hy + hz * hz)
-        hx, hy, hz = hx * inv, hy * inv, hz * inv
-        cih = li[0] * hx + li[1] * hy + li[2] * hz
+        length = np.sqrt(hx * hx + hy * hy + hz * hz)
+        hx, hy, hz = hx / length, hy / length, hz / length
+        # L.H = |L + E| / 2 for unit L and E: the dot product itself came out
+        # negative by rounding with L and E almost opposite near grazing
+        cih = 0.5 * length
         dist = microfacet_distribution(v)
         D = dist.D(hx, hy, hz)
         sh = v["shadowing"]
@@ -176,8 +181,10 @@ def brdf_ward(li, lo, wdot, v):
     ax, ay = v["alpha_x"], v["alpha_y"]
     hx, hy, hz = li[0] + lo[0], li[1] + lo[1], li[2] + lo[2]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        e = ((hx / ax) ** 2 + (hy / ay) ** 2) / (hz * hz)
-        f = np.exp(-e) / (4.0 * PI * ax * ay * np.sqrt(ci * co))
+        # each ratio before squaring, each root apart: hz * hz and ci * co
+        # underflowed to 0 at grazing (NaN for a finite value)
+        e = (hx / hz / ax) ** 2 + (hy / hz / ay) ** 2
+        f = np.exp(-e) / (4.0 * PI * ax * ay * np.sqrt(ci) * np.sqrt(co))
     f = np.where(_upper(ci, co), f, 0.0)
     return f[..., None] * v["ks"]
 
@@ -221,7 +228,7 @@ def _kernel(model, v, wi, wo, normal, tangent, with_cosine):
     if model.kind == "fibre":
         return shade_kajiya_kay(wi, wo, tangent, v, normal)
     li, lo = _local(wi, wo, normal, tangent)
-    wdot = _dot(wi, wo) if model.id in ("phong", "blinn_phong") else None
+    wdot = _dot(wi, wo) if model.id == "phong" else None
     out = _BRDFS[model.id](li, lo, wdot, v)
     if with_cosine:
         out = out * np.maximum(li[2], 0.0)[..., None]
