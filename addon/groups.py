@@ -36,7 +36,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 21  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 22  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -79,6 +79,9 @@ NODES_VERSION = 21  # 2: a closure-only shader feeds the BSDF output;
 # 21: Gaussian with separable Smith's mixture through the same step,
 #    three passes under its present keep rule (its worst interval 0.0343 ->
 #    0.0317): groups saved before get the new data
+# 22: the microfacet model's exact value takes L.H as |L + E| / 2 (it was a
+#    dot product, which float32 halved or made negative with L and E almost
+#    opposite near grazing: a silhouette lit from behind)
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

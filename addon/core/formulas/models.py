@@ -347,7 +347,7 @@ class Microfacet(Formula):
             hv = vec(li[0] + lo[0], li[1] + lo[1], li[2] + lo[2])
             inv = div(1.0, E.length(hv))
             h = (hv[0] * inv, hv[1] * inv, hv[2] * inv)
-            return li, lo, h, li[0] * h[0] + li[1] * h[1] + li[2] * h[2]
+            return li, lo, h, 0.5 * E.length(hv)
 
         def isotropic():
             """(length across n, 0, along n): with one width, D and Lambda
@@ -360,8 +360,11 @@ class Microfacet(Formula):
             hv, hz = wi + s.wo, ci + co
             inv = div(1.0, E.length(hv))
             h = (E.length(hv - s.n * hz) * inv, const(0.0), hz * inv)
-            return li, lo, h, E.dot(wi, hv) * inv
+            return li, lo, h, 0.5 * E.length(hv)
 
+        # cos theta_d = L.H = |L + E| / 2 for unit L and E, never below 0: the
+        # dot product came out negative in float32 with L and E almost
+        # opposite near grazing (a backlit silhouette), and V-groove's G with it
         forms = {}
 
         def flat(form):
