@@ -403,6 +403,17 @@ def test_conductor_fresnel_against_complex_arithmetic():
         np.testing.assert_allclose(R.F_conductor(c, n, k), ref, rtol=1e-12, atol=1e-14)
 
 
+def test_conductor_fresnel_without_extinction_is_the_dielectric_one_to_grazing():
+    """k = 0 is a dielectric: F_conductor equals F_dielectric down to c = 1e-12
+    (1 - c^2 lost c^2 there: an index of 1 reflected everything below
+    c = 1e-8), and an index of 1 reflects nothing, at c = 0 too (was 0/0)."""
+    c = np.r_[0.0, 10.0 ** np.linspace(-12, 0, 49)]
+    for n in (1.0, 1.0001, 1.5, 3.0):
+        np.testing.assert_allclose(R.F_conductor(c[1:], n, 0.0), R.F_dielectric(c[1:], n),
+                                   rtol=1e-9, atol=1e-15)
+    assert np.all(R.F_conductor(c, 1.0, 0.0) == 0.0)
+
+
 def test_dielectric_fresnel_properties():
     for n in (1.33, 1.5, 2.4):
         assert R.F_dielectric(1.0, n) == pytest.approx(((n - 1) / (n + 1)) ** 2, rel=1e-12)

@@ -23,11 +23,15 @@ def F_conductor(c, n, k):
     (Born & Wolf; real-arithmetic form with a^2 + b^2 = |eta^2 - sin^2|)."""
     c2 = c * c
     s2 = 1.0 - c2
-    t0 = n * n - k * k - s2
+    t0 = (n * n - k * k - 1.0) + c2  # n^2 - k^2 - sin^2: 1 - c2 lost c2 near grazing
     ab2 = np.sqrt(t0 * t0 + 4.0 * n * n * k * k)
     a = np.sqrt(np.maximum(0.5 * (ab2 + t0), 0.0))
     two_ac = 2.0 * a * c
-    rs = (ab2 - two_ac + c2) / (ab2 + two_ac + c2)
+    den = ab2 + two_ac + c2
+    # den is 0 only at grazing for n = 1, k = 0 (no interface): 0 there, the
+    # limit along c (it was 0 / 0, NaN)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rs = np.where(den > 0.0, (ab2 - two_ac + c2) / den, 0.0)
     u = c2 * ab2 + s2 * s2
     v = two_ac * s2
     rp = rs * (u - v) / (u + v)
