@@ -541,6 +541,16 @@ def test_directions_of_any_length_are_directions(model, params):
     (lambda w: R.shade("microfacet", w, w, fresnel="dielectric", ior=0.0), "ior must be"),
     (lambda w: R.brdf("kajiya_kay", w, w), "fibre model"),
     (lambda w: R.shade("microfacet", w, w, distribution="beckmann", alpha_x=0.2), "together"),
+    # the width conversions: numpy gave NaN, or past pi a width repeating with cos
+    (lambda w: R.blinn_exponent_from_beta(2.0), r"beta=2.0 is out of range.*\(0, pi/2\)"),
+    (lambda w: R.gaussian_c2_from_beta(-0.1), r"beta=-0.1 is out of range"),
+    (lambda w: R.tr_alpha_from_beta(np.array([0.3, 10.0])), r"beta=10.0 is out of range"),
+    (lambda w: R.beckmann_m_from_beta(float("nan")), r"beta=nan is out of range"),
+    (lambda w: R.beta_from_blinn_exponent(0.0), r"exponent=0.0 is out of range.*\(0, inf\)"),
+    (lambda w: R.beta_from_gaussian_c2(0.5), r"c2=0.5 is out of range; c2 must be .*\(0.53"),
+    (lambda w: R.beta_from_beckmann_m(float("inf")), r"m=inf is out of range"),
+    (lambda w: R.beta_from_tr_alpha(float("nan")), "undefined"),
+    (lambda w: R.D_blinn(0.0, 0.0, 1.0, 1.6), r"beta=1.6 is out of range"),
 ])
 def test_bad_input_raises_value_error_naming_what_is_allowed(call, match):
     w = np.array([0.0, 0.0, 1.0])

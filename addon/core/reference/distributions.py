@@ -38,18 +38,36 @@ LN2 = math.log(2.0)
 # beta, D(beta) = D(0)/2, and the native widths
 # --------------------------------------------------------------------------
 
+def _within(x, name, lo, hi=math.inf):
+    """``x`` as a float array, every element finite and in (lo, hi); else
+    ValueError naming the allowed values (numpy alone would give NaN, or for
+    an angle past pi a width that repeats with the period of cos)."""
+    arr = np.asarray(x, dtype=float)
+    ok = np.isfinite(arr) & (arr > lo) & (arr < hi)
+    if not np.all(ok):
+        bad = float(arr[~ok].ravel()[0]) if arr.ndim else float(arr)
+        upper = "inf" if hi == math.inf else ("pi/2" if hi == 0.5 * PI else f"{hi:.6g}")
+        raise ValueError(f"{name}={bad!r} is out of range; {name} must be a finite number in "
+                         f"({lo:g}, {upper})")
+    return arr
+
+
+# the Gaussian c2 whose beta is pi/2: smaller ones put D's half beyond the hemisphere
+GAUSSIAN_C2_MIN = math.sqrt(LN2) / (0.5 * PI)
+
+
 def blinn_exponent_from_beta(beta):
     """Blinn exponent c with cos^c(beta) = 1/2.
 
     Erratum: the slide prints c = ln 2 / ln cos(beta), which is negative; the
     defining property D(beta) = D(0)/2 needs c = -ln 2 / ln cos(beta).
     """
-    return -LN2 / np.log(np.cos(beta))
+    return -LN2 / np.log(np.cos(_within(beta, "beta", 0.0, 0.5 * PI)))
 
 
 def beta_from_blinn_exponent(c):
     """Inverse of :func:`blinn_exponent_from_beta`: cos(beta) = 2^(-1/c)."""
-    return np.arccos(np.exp2(-1.0 / np.asarray(c, dtype=float)))
+    return np.arccos(np.exp2(-1.0 / _within(c, "exponent", 0.0)))
 
 
 def gaussian_c2_from_beta(beta):
@@ -58,12 +76,12 @@ def gaussian_c2_from_beta(beta):
     Erratum: the slide prints c2 = sqrt(2)/beta, which gives D(beta) = e^-2;
     the defining property needs c2 = sqrt(ln 2)/beta.
     """
-    return math.sqrt(LN2) / np.asarray(beta, dtype=float)
+    return math.sqrt(LN2) / _within(beta, "beta", 0.0, 0.5 * PI)
 
 
 def beta_from_gaussian_c2(c2):
     """Inverse of :func:`gaussian_c2_from_beta`."""
-    return math.sqrt(LN2) / np.asarray(c2, dtype=float)
+    return math.sqrt(LN2) / _within(c2, "c2", GAUSSIAN_C2_MIN)
 
 
 TR_ALPHA_BETA_LIMIT = 2.0 ** -0.25
@@ -76,7 +94,7 @@ def tr_alpha_from_beta(beta):
     c3^2 = (cos^2 beta - 1)/(cos^2 beta - sqrt 2); the slide lost the square of
     D, without which this c3 would not satisfy D(beta) = D(0)/2.
     """
-    x = np.cos(beta) ** 2
+    x = np.cos(_within(beta, "beta", 0.0, 0.5 * PI)) ** 2
     return np.sqrt((x - 1.0) / (x - math.sqrt(2.0)))
 
 
@@ -86,7 +104,7 @@ def beta_from_tr_alpha(alpha):
     Raises ValueError for alpha >= 2^(-1/4) ~ 0.8409, where beta is undefined.
     """
     a2 = np.asarray(alpha, dtype=float) ** 2
-    if np.any(a2 >= TR_ALPHA_BETA_LIMIT ** 2) or np.any(a2 <= 0.0):
+    if not np.all(a2 < TR_ALPHA_BETA_LIMIT ** 2) or np.any(a2 <= 0.0):  # NaN too
         raise ValueError(
             "beta is undefined for Trowbridge-Reitz alpha outside (0, 2^(-1/4) ~ 0.8409): "
             "D never falls to half its peak; use the native alpha")
@@ -95,7 +113,7 @@ def beta_from_tr_alpha(alpha):
 
 def beckmann_m_from_beta(beta):
     """Beckmann m with D(beta) = D(0)/2: m = tan(beta)/sqrt(ln 2 - 4 ln cos(beta))."""
-    beta = np.asarray(beta, dtype=float)
+    beta = _within(beta, "beta", 0.0, 0.5 * PI)
     return np.tan(beta) / np.sqrt(LN2 - 4.0 * np.log(np.cos(beta)))
 
 
@@ -105,7 +123,7 @@ def beta_from_beckmann_m(m):
     f(x) = (1/x - 1)/m^2 - ln 2 + 2 ln x has exactly one root in (0, 1): it
     falls from +inf, and if it rises again (m^2 > 1/2) it ends at -ln 2 < 0.
     """
-    m2 = np.asarray(m, dtype=float) ** 2
+    m2 = _within(m, "m", 0.0) ** 2
     lo = np.zeros_like(m2)  # f(lo) > 0
     hi = np.minimum(1.0, 1.0 / (2.0 * m2))  # f decreasing on (0, hi], f(hi) < 0
     for _ in range(80):
