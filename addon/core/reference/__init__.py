@@ -19,8 +19,10 @@ Angles are radians.
 Also public: the microfacet distributions as types (:func:`distribution`,
 :class:`Blinn`, :class:`Gaussian`, :class:`TrowbridgeReitz`,
 :class:`Beckmann`: D, Lambda, G1, G) and as functions with explicit widths
-(``D_*``, ``Lambda_*``), the width conversions, shadowing, Fresnel and a
-double-precision ``erf``/``erfc``.
+(``D_*``, ``Lambda_*``), the width conversions (each raises ``ValueError``
+naming its range for an argument outside it: beta in (0, pi/2), the
+exponent and m above 0, ...), shadowing, Fresnel and a double-precision
+``erf``/``erfc``.
 
 Hand-written from the lecture (``shared/lecture-reflection-models.txt``,
 conventions and errata in ``shared/LECTURE-NOTES.md``); never generated from
