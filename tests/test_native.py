@@ -147,26 +147,43 @@ HEIGHT = 3.0
 HALF = 0.4  # the occluder's half size
 
 
-def _sunlit_plane(bpy, api, name, osl, model):
-    """A scene seen from above (orthographic, 2 units wide) under the sun
-    SUN, and the plane z = 0 over the view (no UV map) with ``model`` in
-    exact mode bound to the sun: (scene, material, its group node, the
-    plane's mesh)."""
+def _add_plane(bpy, scene, name, mat):
+    """The plane z = 0, 3 units wide (past the 2-unit view), with ``mat``,
+    linked into ``scene``; returns its mesh."""
+    plane = bpy.data.meshes.new(name)
+    plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
+                      [(0, 1, 2, 3)])
+    plane.materials.append(mat)
+    scene.collection.objects.link(bpy.data.objects.new(name, plane))
+    return plane
+
+
+def _rendered(bpy, scene, mat):
+    """``scene`` rendered (the image), then it and ``mat`` removed."""
+    try:
+        img, _seconds = common.render_image(scene)
+    finally:
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+    return img
+
+
+def _sunlit_plane(bpy, api, name, osl, model, sun_dir=SUN, **params):
+    """A scene seen from above (orthographic, 2 units wide) under a sun
+    toward ``sun_dir``, and the plane z = 0 over the view (no UV map) with
+    ``model`` (``params``) in exact mode bound to the sun: (scene, material,
+    its group node, the plane's mesh)."""
     scene = common.new_scene(name)
     common.configure_cycles(scene, samples=1, max_bounces=0, filter_width=0.01, osl=osl)
     scene.cycles.shading_system = osl
     common.set_linear_exr_output(scene, (RES, RES))
     common.set_world_background(scene, 0.0)
     common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), 2.0, distance=10.0)
-    sun = common.add_sun(scene, SUN, 1.0)
+    sun = common.add_sun(scene, sun_dir, 1.0)
     mat, _tree, _out = common.empty_material(name)
-    node = api.add_model(mat, model, mode="exact")
+    node = api.add_model(mat, model, mode="exact", **params)
     api.bind_light(node, sun)
-    plane = bpy.data.meshes.new(name)
-    plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
-                      [(0, 1, 2, 3)])
-    plane.materials.append(mat)
-    scene.collection.objects.link(bpy.data.objects.new(name, plane))
+    plane = _add_plane(bpy, scene, name, mat)
     return scene, mat, node, plane
 
 
@@ -413,11 +430,7 @@ def test_the_engine_switch_takes_its_engines_branch(bpy, engine):
         refs = native_build.Builder(tree, lambda _name: None).instantiate(
             planner.nodes, {"BSDF": switch})
         tree.links.new(refs["BSDF"], out.inputs["Surface"])
-        plane = bpy.data.meshes.new(name)
-        plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
-                          [(0, 1, 2, 3)])
-        plane.materials.append(mat)
-        scene.collection.objects.link(bpy.data.objects.new(name, plane))
+        _add_plane(bpy, scene, name, mat)
         img, _seconds = common.render_image(scene)
     finally:
         bpy.data.scenes.remove(scene)
@@ -465,12 +478,7 @@ def _kk_plane(bpy, api, osl, tangent):
     if tangent is not None:
         node.inputs["Tangent"].default_value = tangent
     assert not plane.uv_layers
-    try:
-        img, _seconds = common.render_image(scene)
-    finally:
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
-    return img
+    return _rendered(bpy, scene, mat)
 
 
 @pytest.mark.parametrize("osl", [False, True], ids=["native", "osl"])
@@ -496,11 +504,12 @@ def test_a_fibre_without_uv_map_is_turned_once(api, bpy, osl):
 
 TILT = 1e-4  # the sun's angle from straight behind the plane, radians
 BACKLIGHT = np.array([math.sin(TILT), 0.0, -math.cos(TILT)])
+BETA_20 = math.radians(20.0)
 BACKLIT_CASES = [
-    ("microfacet", {"distribution": "gaussian", "shadowing": "vgroove", "beta": math.radians(20.0)}),
-    ("microfacet", {"distribution": "beckmann", "shadowing": "none", "beta": math.radians(20.0)}),
-    ("microfacet", {"distribution": "trowbridge_reitz", "shadowing": "smith", "fresnel": "conductor",
-                    "ior": 0.2, "k": 3.0, "alpha": 0.3}),
+    ("microfacet", {"distribution": "gaussian", "shadowing": "vgroove", "beta": BETA_20}),
+    ("microfacet", {"distribution": "beckmann", "shadowing": "none", "beta": BETA_20}),
+    ("microfacet", {"distribution": "trowbridge_reitz", "shadowing": "smith",
+                    "fresnel": "conductor", "ior": 0.2, "k": 3.0, "alpha": 0.3}),
     ("torrance_sparrow", {}),
     ("phong", {"exponent": 20.0, "normalization": "energy"}),
     ("blinn_phong", {"exponent": 20.0}),
@@ -517,45 +526,27 @@ def _backlit(bpy, api, osl, model, params):
     behind.  ``model`` in exact mode bound to the sun (no shadow ray: the sun
     is below the plane; no UV map: Kajiya-Kay's fibre is the frame's
     tangent, y here).  Returns the rendered image."""
-    name = f"rm_backlit_{osl}"
-    scene = common.new_scene(name)
-    common.configure_cycles(scene, samples=1, max_bounces=0, filter_width=0.01, osl=osl)
-    scene.cycles.shading_system = osl
-    common.set_linear_exr_output(scene, (RES, RES))
-    common.set_world_background(scene, 0.0)
-    common.add_orthographic_camera(scene, (0.0, 0.0, 1.0), 2.0, distance=10.0)
-    sun = common.add_sun(scene, BACKLIGHT, 1.0)
-    mat, tree, _out = common.empty_material(name)
-    try:
-        node = api.add_model(mat, model, mode="exact", **params)
-        api.bind_light(node, sun)
-        node.inputs["Shadows"].default_value = 0.0  # the sun is below the plane
-        pos = tree.nodes.new("ShaderNodeNewGeometry").outputs["Position"]
-        xyz = tree.nodes.new("ShaderNodeSeparateXYZ")
-        tree.links.new(pos, xyz.inputs[0])
+    scene, mat, node, _plane = _sunlit_plane(bpy, api, f"rm_backlit_{osl}", osl, model,
+                                             BACKLIGHT, **params)
+    tree = mat.node_tree
+    node.inputs["Shadows"].default_value = 0.0  # the sun is below the plane
+    pos = tree.nodes.new("ShaderNodeNewGeometry").outputs["Position"]
+    xyz = tree.nodes.new("ShaderNodeSeparateXYZ")
+    tree.links.new(pos, xyz.inputs[0])
 
-        def affine(socket, scale, offset):
-            m = tree.nodes.new("ShaderNodeMath")
-            m.operation = "MULTIPLY_ADD"
-            tree.links.new(socket, m.inputs[0])
-            m.inputs[1].default_value, m.inputs[2].default_value = scale, offset
-            return m.outputs[0]
+    def affine(socket, scale, offset):
+        m = tree.nodes.new("ShaderNodeMath")
+        m.operation = "MULTIPLY_ADD"
+        tree.links.new(socket, m.inputs[0])
+        m.inputs[1].default_value, m.inputs[2].default_value = scale, offset
+        return m.outputs[0]
 
-        normal = tree.nodes.new("ShaderNodeCombineXYZ")
-        normal.inputs[0].default_value = 1.0
-        tree.links.new(affine(xyz.outputs[1], 1e-3, 0.0), normal.inputs[1])
-        tree.links.new(affine(xyz.outputs[0], TILT / 2, TILT / 2), normal.inputs[2])
-        tree.links.new(normal.outputs[0], node.inputs["Normal"])
-        plane = bpy.data.meshes.new(name)
-        plane.from_pydata([(-1.5, -1.5, 0), (1.5, -1.5, 0), (1.5, 1.5, 0), (-1.5, 1.5, 0)], [],
-                          [(0, 1, 2, 3)])
-        plane.materials.append(mat)
-        scene.collection.objects.link(bpy.data.objects.new(name, plane))
-        img, _seconds = common.render_image(scene)
-    finally:
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
-    return img
+    normal = tree.nodes.new("ShaderNodeCombineXYZ")
+    normal.inputs[0].default_value = 1.0
+    tree.links.new(affine(xyz.outputs[1], 1e-3, 0.0), normal.inputs[1])
+    tree.links.new(affine(xyz.outputs[0], TILT / 2, TILT / 2), normal.inputs[2])
+    tree.links.new(normal.outputs[0], node.inputs["Normal"])
+    return _rendered(bpy, scene, mat)
 
 
 @pytest.mark.parametrize("osl", [False, True], ids=["native", "osl"])
