@@ -574,3 +574,19 @@ def test_a_silhouette_lit_from_behind_renders_the_model(api, bpy, osl, model, pa
     # 0.74 of this bound at worst over every model and shadowing)
     assert np.all(np.abs(img - ref) <= ref * (1e-4 + 1.2e-7 / ci[..., None])), \
         float((np.abs(img - ref) / ref).max())
+
+
+@pytest.mark.parametrize("osl", [False, True], ids=["native", "osl"])
+def test_an_index_of_one_stays_black_lit_from_behind(api, bpy, osl):
+    """A conductor of index 1 and no extinction reflects nothing (F = 0).
+    Its Fresnel took n^2 - k^2 - sin^2 as n^2 - k^2 - (1 - c^2), and float32
+    loses c^2 against 1 below c = 2.4e-4: F was 1 there, where L.H, the c of
+    this scene, is 5e-5: the V-groove lobe rendered as if no Fresnel."""
+    params = {"distribution": "beckmann", "shadowing": "vgroove", "beta": BETA_20}
+    img = _backlit(bpy, api, osl, "microfacet",
+                   dict(params, fresnel="conductor", ior=1.0, k=0.0))
+    lit = _backlit(bpy, api, osl, "microfacet", params)
+    assert lit.min() > 0.0  # without the Fresnel every pixel is lit
+    # float32: F's numerator is a difference that may cancel to a few ulps of
+    # its denominator rather than to 0 (measured: 0 exactly, both backends)
+    assert np.all(np.abs(img) <= 1e-5 * lit), float((np.abs(img) / lit).max())

@@ -273,7 +273,7 @@ def F_conductor(c, n, k):
     """Exact unpolarised Fresnel of a complex index n + ik (Born & Wolf)."""
     c2 = c * c
     s2 = 1.0 - c2
-    t0 = n * n - k * k - s2
+    t0 = (n * n - k * k - 1.0) + c2  # n^2 - k^2 - sin^2: 1 - c2 loses c2 near grazing
     ab2 = sqrt(t0 * t0 + 4.0 * n * n * k * k)
     a = sqrt(fmax(0.5 * (ab2 + t0), 0.0))
     two_ac = 2.0 * a * c
