@@ -82,7 +82,8 @@ NODES_VERSION = 22  # 2: a closure-only shader feeds the BSDF output;
 # 22: the microfacet model's exact value takes L.H as |L + E| / 2 (it was a
 #    dot product, which float32 halved or made negative with L and E almost
 #    opposite near grazing: a silhouette lit from behind), and the conductor
-#    Fresnel n^2 - k^2 - sin^2 as n^2 - k^2 - 1 + c^2 (1 - c^2 lost c^2)
+#    Fresnel n^2 - k^2 - sin^2 as n^2 - k^2 - 1 + c^2 (1 - c^2 lost c^2);
+#    Kajiya-Kay's sines as |T x w| (sqrt(1 - cos^2) erred near the fibre)
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 
