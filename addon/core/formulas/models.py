@@ -345,9 +345,10 @@ class Microfacet(Formula):
             """Components in the frame (t, b, n): anisotropic widths."""
             li, lo = local(wi, s.t, s.b, s.n), local(s.wo, s.t, s.b, s.n)
             hv = vec(li[0] + lo[0], li[1] + lo[1], li[2] + lo[2])
-            inv = div(1.0, E.length(hv))
+            length = E.length(hv)
+            inv = div(1.0, length)
             h = (hv[0] * inv, hv[1] * inv, hv[2] * inv)
-            return li, lo, h, 0.5 * E.length(hv)
+            return li, lo, h, 0.5 * length
 
         def isotropic():
             """(length across n, 0, along n): with one width, D and Lambda
@@ -358,9 +359,10 @@ class Microfacet(Formula):
             li = (E.length(wi - s.n * ci), const(0.0), ci)
             lo = (E.length(s.wo - s.n * co), const(0.0), co)
             hv, hz = wi + s.wo, ci + co
-            inv = div(1.0, E.length(hv))
+            length = E.length(hv)
+            inv = div(1.0, length)
             h = (E.length(hv - s.n * hz) * inv, const(0.0), hz * inv)
-            return li, lo, h, 0.5 * E.length(hv)
+            return li, lo, h, 0.5 * length
 
         # cos theta_d = L.H = |L + E| / 2 for unit L and E, never below 0: the
         # dot product came out negative in float32 with L and E almost
