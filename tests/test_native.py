@@ -168,6 +168,16 @@ def _rendered(bpy, scene, mat):
     return img
 
 
+PIXEL = 2.0 / RES  # the orthographic view is 2 units wide
+
+
+def _pixel_centres():
+    """(X, Y): the world x and y of each pixel's centre on the plane z = 0
+    seen from above (row 0 at the top)."""
+    x = (np.arange(RES) + 0.5) * PIXEL - 1.0
+    return np.meshgrid(x, -x)
+
+
 def _sunlit_plane(bpy, api, name, osl, model, sun_dir=SUN, **params):
     """A scene seen from above (orthographic, 2 units wide) under a sun
     toward ``sun_dir``, and the plane z = 0 over the view (no UV map) with
@@ -205,15 +215,9 @@ def test_the_shadow_falls_where_the_geometry_puts_it(api, bpy, osl):
     from addon.backends.native.build import has_raycast
 
     scene, mat = _shadow_scene(bpy, api, osl)
-    try:
-        img, _seconds = common.render_image(scene)
-    finally:
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
-    p = 2.0 / RES
-    x = (np.arange(RES) + 0.5) * p - 1.0
-    X, Y = np.meshgrid(x, -x)
-    margin = 1.5 * p
+    img = _rendered(bpy, scene, mat)
+    X, Y = _pixel_centres()
+    margin = 1.5 * PIXEL
     inside = (np.abs(X) < HALF - margin) & (np.abs(Y) < HALF - margin)
     outside = (np.abs(X) > HALF + margin) | (np.abs(Y) > HALF + margin)
     lit_value = float(R.shade("lambert", SUN[None], np.array([[0.0, 0.0, 1.0]]))[0, 0])
@@ -559,9 +563,7 @@ def test_a_silhouette_lit_from_behind_renders_the_model(api, bpy, osl, model, pa
     came out negative in 0.7 %, G and the pixel with it.  It is |L + E| / 2
     now.  The other cases hold every model to the same there."""
     img = _backlit(bpy, api, osl, model, params)
-    p = 2.0 / RES
-    x = (np.arange(RES) + 0.5) * p - 1.0
-    X, Y = np.meshgrid(x, -x)
+    X, Y = _pixel_centres()
     n = np.stack([np.ones_like(X), Y * 1e-3, (X + 1.0) * TILT / 2], -1)
     ref = R.shade(model, BACKLIGHT, np.array([0.0, 0.0, 1.0]), normal=n,
                   tangent=(0.0, 1.0, 0.0), **params)
