@@ -340,7 +340,7 @@ def _build_tiles_mesh(name, tiles, centres, size):
 
 
 def plan_gonio(*, light_dir, view_dir=(0.0, 0.0, 1.0), tiles=None, resolution=64,
-               fill=0.7, erode=1.0, strength=1.0, up_hint=None):
+               fill=0.7, erode=1.0, strength=1.0, up_hint=None, columns=None):
     """The layout and per-pixel geometry of a gonioreflectometer scene,
     without Blender (numpy only): a :class:`GonioScene` whose Blender fields
     (``scene``, ``camera``, ...) are None.  Arguments as for
@@ -361,7 +361,7 @@ def plan_gonio(*, light_dir, view_dir=(0.0, 0.0, 1.0), tiles=None, resolution=64
             raise ValueError(f"tile normal {t.normal} does not face the camera")
 
     w, h = resolution
-    nx = math.ceil(math.sqrt(len(tiles)))
+    nx = int(columns) if columns else math.ceil(math.sqrt(len(tiles)))
     ny = math.ceil(len(tiles) / nx)
     ortho_scale = float(max(nx, ny * w / h))  # cells of side 1
     right, up = basis[:, 0], basis[:, 1]
@@ -377,7 +377,7 @@ def plan_gonio(*, light_dir, view_dir=(0.0, 0.0, 1.0), tiles=None, resolution=64
 
 def build_gonio_scene(material, *, light_dir, view_dir=(0.0, 0.0, 1.0), tiles=None,
                       resolution=64, fill=0.7, erode=1.0, strength=1.0, osl=None,
-                      up_hint=None, name="gonio"):
+                      up_hint=None, name="gonio", columns=None):
     """Build the gonioreflectometer scene for ``material``.
 
     - ``light_dir``: direction toward the sun (wi), world space.
@@ -386,7 +386,8 @@ def build_gonio_scene(material, *, light_dir, view_dir=(0.0, 0.0, 1.0), tiles=No
       plane, so with the default view the image x/y are world x/y.
     - ``tiles``: list of :class:`Tile` (default :func:`hemisphere_tiles` around
       ``view_dir``: 25 tiles, tilts 0-72 degrees, 6 azimuths), laid out
-      row by row from the top left.  Each must face the camera.
+      row by row from the top left, ``columns`` to a row (default: as many
+      as make the grid square).  Each must face the camera.
     - ``resolution``: int (square) or ``(W, H)`` in pixels.
     - ``fill``: tile side / cell side (at most 0.7); ``erode``: pixels kept
       between a measured pixel centre and a tile edge.
@@ -400,7 +401,7 @@ def build_gonio_scene(material, *, light_dir, view_dir=(0.0, 0.0, 1.0), tiles=No
     """
     g = plan_gonio(light_dir=light_dir, view_dir=view_dir, tiles=tiles,
                    resolution=resolution, fill=fill, erode=erode, strength=strength,
-                   up_hint=up_hint)
+                   up_hint=up_hint, columns=columns)
     bpy = common.import_bpy()
     scene = common.new_scene(name)
     if osl is None:
