@@ -34,6 +34,14 @@ def _dot(a, b):
     return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
+def _cross_length(a, b):
+    """|a x b|."""
+    x = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    y = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    z = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return np.sqrt(x * x + y * y + z * z)
+
+
 def _unit(v):
     """``v`` scaled to unit length; a zero vector, or one with a NaN or
     infinite component, becomes zero (it has no direction: the result is
@@ -208,10 +216,10 @@ def shade_kajiya_kay(wi, wo, tangent, v, normal=DEFAULT_NORMAL):
     none = _dot(t, t) == 0.0
     if np.any(none):  # no direction given: the frame's tangent, as the shaders
         t = np.where(none[..., None], _frame(normal, np.zeros(3))[..., 0, :], t)
-    cl = _dot(t, _vec(wi, "wi"))
-    ce = _dot(t, _vec(wo, "wo"))
-    sl = np.sqrt(np.maximum(1.0 - cl * cl, 0.0))
-    se = np.sqrt(np.maximum(1.0 - ce * ce, 0.0))
+    wi, wo = _vec(wi, "wi"), _vec(wo, "wo")
+    cl, ce = _dot(t, wi), _dot(t, wo)
+    # the sines as |T x w|: sqrt(1 - cos^2) loses them near the fibre (10^-16 / sin^2)
+    sl, se = _cross_length(t, wi), _cross_length(t, wo)
     spec = _lobe(sl * se - cl * ce, v["exponent"])
     out = sl[..., None] * v["kd"] + spec[..., None] * v["ks"]
     # a zero direction (given as zero, NaN or infinite: _unit) lights nothing
