@@ -446,9 +446,9 @@ def test_kajiya_kay_highlight_lies_on_the_mirror_cone():
 @pytest.mark.parametrize("eps", [1e-3, 1e-6, 1e-9, 1e-150])
 def test_kajiya_kay_keeps_its_sines_with_the_light_along_the_fibre(eps):
     """The light eps rad from the fibre, the view across it: the diffuse
-    term is kd sin(eps) and the cone term sin(eps) (T.E = 0), to float64
-    rounding (1e-12 relative; sqrt(1 - cos^2) lost the sine: 5e-5 relative
-    at 1e-6, and 0 from 1e-8 on)."""
+    term is kd sin(eps), and the cone term sin(eps) (T.E = 0), so ks sin^2
+    at exponent 2, to float64 rounding (1e-12 relative; sqrt(1 - cos^2)
+    lost the sine: 5e-5 relative at 1e-6, and 0 from 1e-8 on)."""
     t = np.array([1.0, 0.0, 0.0])
     wi = np.array([math.cos(eps), 0.0, math.sin(eps)])
     wo = np.array([0.0, 0.6, 0.8])
