@@ -328,6 +328,14 @@ def attr_name(input_name):
     return "rm_" + input_name
 
 
+# inf_by_product (link_attribute, Bench.set_rows): the attribute holds the
+# value / INF_FACTOR, +-2^120 for +-inf, and the shader multiplies it by
+# INF_FACTOR (2^120 * 2^16 overflows float32 to inf).  A power of two: the
+# product restores every value whose quotient is a normal float32 exactly.
+INF_FACTOR = 2.0 ** 16
+INF_STORED = 2.0 ** 120
+
+
 def _script_nodes(tree, variant):
     """The model's shader, and the variant's closure-only shader that feeds
     the groups' BSDF output: ``(direct_node, bsdf_node)``."""
@@ -358,17 +366,32 @@ def _select_output(tree, direct, bsdf, out):
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
 
 
-def link_attribute(tree, socket, name, kind):
+def link_attribute(tree, socket, name, kind, inf_by_product=False):
     """Link the face attribute ``name`` to ``socket``.  A float is read as
     the X of the Vector output: the Fac output is (x + x + x) * 0.33333334,
-    which is not always x."""
+    which is not always x.  ``inf_by_product``: the attribute times
+    INF_FACTOR, for EEVEE, which does not read an infinite face attribute as
+    inf (``test_what_eevee_makes_of_an_infinite_face_attribute``).  No
+    attribute is added: EEVEE reads at most 15 a material (GPU_MAX_ATTR)."""
     attr = _attribute_node(tree, name)
     if kind == "VALUE":
         sep = tree.nodes.new("ShaderNodeSeparateXYZ")
         tree.links.new(attr.outputs["Vector"], sep.inputs[0])
-        tree.links.new(sep.outputs["X"], socket)
+        out = sep.outputs["X"]
     else:
-        tree.links.new(attr.outputs[ATTR_OUTPUT[kind]], socket)
+        out = attr.outputs["Vector" if inf_by_product else ATTR_OUTPUT[kind]]
+    if inf_by_product:
+        if kind == "VALUE":
+            mul = tree.nodes.new("ShaderNodeMath")
+            mul.operation = 'MULTIPLY'
+            mul.inputs[1].default_value = INF_FACTOR
+        else:
+            mul = tree.nodes.new("ShaderNodeVectorMath")
+            mul.operation = 'SCALE'
+            mul.inputs["Scale"].default_value = INF_FACTOR
+        tree.links.new(out, mul.inputs[0])
+        out = mul.outputs[0]
+    tree.links.new(out, socket)
 
 
 def linked_material(bpy, variant):
@@ -440,9 +463,10 @@ class Bench:
         self.mesh.polygons.foreach_set("material_index", np.asarray(per_tile, np.int32))
         self.mesh.update()
 
-    def set_rows(self, inputs, rows):
+    def set_rows(self, inputs, rows, inf_by_product=False):
         """Face attributes for each input: row r's tiles get rows[r] (a dict
-        of values; missing inputs keep their defaults)."""
+        of values; missing inputs keep their defaults).  ``inf_by_product``:
+        each value over INF_FACTOR, +-inf as +-INF_STORED (link_attribute)."""
         for inp in inputs.values():
             width = 1 if inp.kind == "VALUE" else 3
             data = np.empty((self.tiles, width), np.float64)
@@ -452,6 +476,12 @@ class Bench:
                 if callable(v):
                     v = v(self.normals[k], self.tangents[k])
                 data[k] = v
+            if inf_by_product:
+                data = np.where(np.isinf(data), np.copysign(INF_STORED, data),
+                                data / INF_FACTOR)
+                stored = np.abs(data.astype(np.float32))
+                assert np.all((stored == 0) | ~np.isfinite(stored)
+                              | (stored >= np.finfo(np.float32).tiny)), inp.name
             self._attribute(attr_name(inp.name), inp.kind, data)
         self.mesh.update()
 
@@ -479,7 +509,7 @@ def bench(bpy):
 # Rows of the EEVEE tests' bench: every case of a variant in one render.  An
 # EEVEE render costs about 2 s here whatever its size (software OpenGL), a
 # Cycles render of the bench 20 ms.
-EEVEE_ROWS = 8 * GRID
+EEVEE_ROWS = 9 * GRID
 
 
 @pytest.fixture(scope="module")
@@ -524,9 +554,10 @@ def check_rows(bad_img, ref_img, cases, where):
     return problems
 
 
-def linked_group_material(bpy, variant):
+def linked_group_material(bpy, variant, inf_by_product=False):
     """The variant's group forced to native nodes, every numeric input
-    socket linked from the face attribute rm_<input>."""
+    socket linked from the face attribute rm_<input> (``inf_by_product``:
+    see link_attribute)."""
     api, nodes = _api(bpy)
     mat, tree, out = _new_material(bpy, "rob_native_" + variant.id)
     node = api.add_model(mat, variant.model, mode="exact", backend="native",
@@ -536,7 +567,7 @@ def linked_group_material(bpy, variant):
             socket = nodes.input_socket(node, inp.name)
         except KeyError:
             continue  # the variant's group has no such socket (another width mode)
-        link_attribute(tree, socket, attr_name(inp.name), inp.kind)
+        link_attribute(tree, socket, attr_name(inp.name), inp.kind, inf_by_product)
     mix = tree.nodes.new("ShaderNodeMixShader")
     tree.links.new(_attribute_node(tree, "rm_output").outputs["Fac"], mix.inputs[0])
     tree.links.new(nodes.output_socket(node, "Direct"), mix.inputs[1])
@@ -545,8 +576,9 @@ def linked_group_material(bpy, variant):
     return mat
 
 
-def render_linked_cases(bench, variant, cases, material=None):
-    """Render the cases a bench's rows at a time through the attribute links;
+def render_linked_cases(bench, variant, cases, material=None, inf_by_product=False):
+    """Render the cases a bench's rows at a time through the attribute links
+    (``inf_by_product``: see link_attribute; ``material`` must link so too);
     return the problems found."""
     bpy = bench.bpy
     mat = (material or linked_material)(bpy, variant)
@@ -558,9 +590,10 @@ def render_linked_cases(bench, variant, cases, material=None):
         chunk = cases[start:start + bench.rows]
         for output in ("Direct", "BSDF"):
             bench.set_output(output)
-            bench.set_rows(inputs, [c.values for c in chunk])
+            bench.set_rows(inputs, [c.values for c in chunk], inf_by_product)
             bad = bench.render()
-            bench.set_rows(inputs, [c.ref if c.ref is not None else {} for c in chunk])
+            bench.set_rows(inputs, [c.ref if c.ref is not None else {} for c in chunk],
+                           inf_by_product)
             ref = bench.render()
             problems += check_rows(bad, ref, chunk, f"{variant.id} {output}")
             nonzero[output] += sum(bool(np.any(_row(ref, r) > 0)) for r in range(len(chunk)))
@@ -653,66 +686,97 @@ def _eevee(scene):
             setattr(r, k, value)
 
 
-def _is_plus_inf(value):
+def _is_infinite(value):
     values = value if isinstance(value, tuple) else (value,)
-    return any(isinstance(x, float) and x == math.inf for x in values)
+    return any(isinstance(x, float) and math.isinf(x) for x in values)
 
 
-def test_eevee_reads_an_infinite_face_attribute_of_the_bench_as_zero(eevee_bench):
-    """Why the EEVEE test below leaves +inf out: on this bench's mesh EEVEE
-    delivers an infinite face attribute as 0 (Cycles delivers it as inf),
-    so those cases would not reach the graph.  (In a small test mesh EEVEE
-    does deliver inf, and the graphs clamp it like the limit.)  If EEVEE
-    starts delivering it here, this fails: put the +inf cases back."""
+def test_what_eevee_makes_of_an_infinite_face_attribute(eevee_bench):
+    """Why the EEVEE test below makes its infinities in the shader
+    (inf_by_product: an attribute of 2^120 times 2^16): in EEVEE an infinite
+    face attribute of this bench compares as NaN does (neither above nor
+    below 1e30), read straight or times 2^16, while 2^120 times 2^16 is
+    beyond 3e38.  Cycles reads the attribute as inf.  (A likely cause, not
+    proven: the attribute is interpolated across the triangle, and inf - inf
+    is NaN.)  If EEVEE starts reading the attribute as inf, this fails: the
+    EEVEE test may then link the attributes as the others do."""
     bench = eevee_bench
     bpy = bench.bpy
     mat, tree, out = _new_material(bpy, "rob_eevee_inf")
-    attr = _attribute_node(tree, attr_name("albedo"))
-    sep = tree.nodes.new("ShaderNodeSeparateXYZ")
-    tree.links.new(attr.outputs["Vector"], sep.inputs[0])
-    big = tree.nodes.new("ShaderNodeMath")
-    big.operation = 'GREATER_THAN'
-    big.inputs[1].default_value = 1e30
-    tree.links.new(sep.outputs[0], big.inputs[0])
+    straight = tree.nodes.new("ShaderNodeSeparateXYZ")
+    link_attribute(tree, straight.inputs[0], attr_name("x"), "VECTOR")
+    product = tree.nodes.new("ShaderNodeSeparateXYZ")
+    link_attribute(tree, product.inputs[0], attr_name("x"), "VECTOR", inf_by_product=True)
+    probes = tree.nodes.new("ShaderNodeCombineXYZ")  # (x > 1e30, x < 1e30, |x 2^16| > 3e38)
+    size = tree.nodes.new("ShaderNodeMath")
+    size.operation = 'ABSOLUTE'
+    tree.links.new(product.outputs[0], size.inputs[0])
+    for i, (op, source, bound) in enumerate((("GREATER_THAN", straight.outputs[0], HUGE),
+                                             ("LESS_THAN", straight.outputs[0], HUGE),
+                                             ("GREATER_THAN", size.outputs[0], 3e38))):
+        m = tree.nodes.new("ShaderNodeMath")
+        m.operation = op
+        tree.links.new(source, m.inputs[0])
+        m.inputs[1].default_value = bound
+        tree.links.new(m.outputs[0], probes.inputs[i])
     emit = tree.nodes.new("ShaderNodeEmission")
-    tree.links.new(big.outputs[0], emit.inputs["Strength"])
+    tree.links.new(probes.outputs[0], emit.inputs["Color"])
     tree.links.new(emit.outputs[0], out.inputs["Surface"])
     bench.set_materials([mat], [0] * bench.tiles)
-    inputs = {"albedo": Input("albedo", "RGBA", (0.5, 0.5, 0.5), 0.0, 1.0)}
-    rows = [{"albedo": (math.inf,) * 3} if r % 2 else {} for r in range(bench.rows)]
-    bench.set_rows(inputs, rows)
-    seen = {}
+    values = [INF, -INF, 0.5, INF_STORED, -INF_STORED]
+    x = np.zeros((bench.tiles, 3))
+    x[:, 0] = [values[k // GRID % len(values)] for k in range(bench.tiles)]
+    bench._attribute(attr_name("x"), "VECTOR", x)
+    bench.mesh.update()
     with _eevee(bench.g.scene):
-        seen["eevee"] = bench.render()
-    seen["cycles"] = bench.render()
+        eevee = bench.render()
+    cycles = bench.render()
     bench.mesh.materials.clear()
     bpy.data.materials.remove(mat)
-    for engine, img in seen.items():
-        lit = [bool(np.any(_row(img, r) > 0.5)) for r in range(bench.rows)]
-        assert lit == ([r % 2 == 1 for r in range(bench.rows)] if engine == "cycles"
-                       else [False] * bench.rows), (engine, lit)
+    expect = [(1.0, 0.0, 1.0), (0.0, 1.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 1.0),
+              (0.0, 1.0, 1.0)]
+    for engine, img in (("eevee", eevee), ("cycles", cycles)):
+        want = list(expect)
+        if engine == "eevee":
+            want[:2] = [(0.0, 0.0, 0.0)] * 2  # compares as NaN, straight or times 2^16
+        for r in range(bench.rows):
+            got = tuple(float(v) for v in _row(img, r)[..., :3].reshape(-1, 3).max(axis=0))
+            assert got == want[r % len(values)], (engine, r, got)
 
 
 EEVEE_VARIANTS = [v for v in VARIANTS if v.id in ("lambert", "phong", "ward",
                                                    "microfacet_alpha_conductor")]
 
 
+# Blender's GPU_MAX_ATTR: EEVEE reads at most 15 attributes a material and
+# silently leaves the rest unread (one more input would make the test vacuous).
+EEVEE_MAX_ATTRIBUTES = 15
+
+
+def _eevee_material(bpy, variant):
+    mat = linked_group_material(bpy, variant, inf_by_product=True)
+    read = {n.attribute_name for n in mat.node_tree.nodes if n.type == 'ATTRIBUTE'}
+    # one more for the UV map of the groups' default tangent
+    assert len(read) + 1 <= EEVEE_MAX_ATTRIBUTES, (variant.id, sorted(read))
+    return mat
+
+
 @pytest.mark.parametrize("variant", EEVEE_VARIANTS, ids=lambda v: v.id)
 def test_bad_values_through_links_render_like_the_limit_in_eevee(eevee_bench, variant):
     """The same cases through the native nodes in EEVEE (software EGL,
-    half-float output); bit-identical to the limit's render.  Left out: +inf
-    (the test above) and a tangent along the normal: computed here from the
+    half-float output); bit-identical to the limit's render.  The
+    infinities are made in the shader (inf_by_product; the test above says
+    why).  Left out: a tangent along the normal: computed here from the
     tile's exact normal, it renders 0.7 % off the fallback's render in
     EEVEE (Ward, 48 pixels), where Cycles matches to 1e-6.  The likely
     cause: the GPU's normals are quantised, so the tangent is not along
     EEVEE's normal within the 1e-6 at which the graphs take it for one."""
-    cases = [c for c in variant_cases(variant)
-             if not any(_is_plus_inf(v) for v in c.values.values())
-             and c.label != "tangent along the normal"]
+    cases = [c for c in variant_cases(variant) if c.label != "tangent along the normal"]
     assert len(cases) <= eevee_bench.rows  # one render an output, else raise EEVEE_ROWS
+    assert any(_is_infinite(v) for c in cases for v in c.values.values())
     with _eevee(eevee_bench.g.scene):
         problems, nonzero = render_linked_cases(eevee_bench, variant, cases,
-                                                linked_group_material)
+                                                _eevee_material, inf_by_product=True)
     print(f"{variant.id} EEVEE: {len(cases)} cases, non-black references: {nonzero}")
     assert not problems, "\n".join(problems)
     for output, count in nonzero.items():
