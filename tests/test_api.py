@@ -393,3 +393,39 @@ def test_the_sidebar_status_reads_the_nodes_width_and_fresnel(api, bpy):
     value = mat.node_tree.nodes.new("ShaderNodeValue")
     mat.node_tree.links.new(value.outputs[0], nodes.input_socket(node, "beta"))
     assert status() == approx  # the width unknown: with Fresnel no bound holds
+
+
+def test_add_model_compiles_osl_in_a_plain_bpy_process(tmp_path):
+    """A script that imports the ``bpy`` module (the pip wheel) and nothing
+    else: there Cycles' ``oslquery`` does not import (Blender's bundled
+    site-packages are off ``sys.path``), and the extension puts them on it
+    before it compiles its shaders (``addon/backends/osl/compile.py``)."""
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import bpy\n"
+        "try:\n"
+        "    import oslquery\n"
+        "    print('oslquery importable before')\n"
+        "except ImportError:\n"
+        "    pass\n"
+        "from addon import api\n"
+        "mat = bpy.data.materials.new('m')\n"
+        "node = api.add_model(mat, 'phong')\n"
+        "scripts = [n for n in node.node_tree.nodes if n.type == 'SCRIPT']\n"
+        "print('scripts', len(scripts) > 0 and all(len(n.bytecode) > 0 for n in scripts))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONSTARTUP")}
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
+    for name in ("CONFIG", "SCRIPTS", "DATAFILES", "EXTENSIONS"):
+        (tmp_path / name).mkdir()
+        env[f"BLENDER_USER_{name}"] = str(tmp_path / name)
+    env["TMPDIR"] = str(tmp_path)
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path,
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    lines = out.stdout.splitlines()
+    assert "oslquery importable before" not in lines  # else this tests nothing
+    assert [x for x in lines if x.startswith("scripts ")] == ["scripts True"], out.stdout

@@ -141,11 +141,50 @@ def _raise_compile_error(node, output, messages):
         f"datablock, headers inlined):\n{detail}")
 
 
+def _ensure_oslquery() -> None:
+    """Make Cycles' ``oslquery`` importable, which its script-node update
+    needs.  Blender's own Python finds it; the ``bpy`` module (the pip
+    wheel) ships it in Blender's bundled site-packages but leaves that
+    folder off ``sys.path``: put it first there, as Blender does, so that
+    ``oslquery`` gets the bundled OpenImageIO it was built against.  Raises
+    :class:`OSLCompileError` where another OpenImageIO is already imported
+    (``oslquery`` cannot work in that process)."""
+    try:
+        import oslquery  # noqa: F401
+        return
+    except ImportError:
+        pass
+    import bpy
+
+    local = Path(bpy.utils.resource_path('LOCAL'))
+    bundled = [str(p) for p in sorted(local.glob("python/lib/python3*/site-packages"))]
+    oiio = sys.modules.get("OpenImageIO")
+    if oiio is not None:
+        origin = str(Path(getattr(oiio, "__file__", "") or "").resolve())
+        if not any(origin.startswith(str(Path(p).resolve())) for p in bundled):
+            where = ", ".join(bundled) or "Blender's bundled site-packages"
+            raise OSLCompileError(
+                f"cannot compile OSL shaders in this process: Cycles' oslquery needs "
+                f"Blender's bundled OpenImageIO, and another one was imported first "
+                f"({origin}); compile before importing OpenImageIO, or put {where} "
+                f"first on sys.path")
+    for p in reversed(bundled):
+        if p not in sys.path:
+            sys.path.insert(0, p)
+    try:
+        import oslquery  # noqa: F401,F811
+    except ImportError as e:
+        raise OSLCompileError(f"cannot compile OSL shaders: Cycles' oslquery does not "
+                              f"import ({e}); looked in {bundled}") from e
+
+
 def compile_script_node(node) -> None:
     """Compile the Script ``node`` with Cycles' ``update_script_node``: fills
     ``node.bytecode`` and creates the sockets.  Raises :class:`OSLCompileError`
     with the compiler output when it fails."""
     from cycles import osl as cycles_osl
+
+    _ensure_oslquery()
 
     messages = []
 
