@@ -173,6 +173,57 @@ def test_gonio_plan_masks_and_shadows():
     assert not (low.mask & low.shadowed).any()
 
 
+def _brute_force_coverage_and_shadows(g, light_dir):
+    """Which tile each pixel centre sees and which pixels a tile shadows,
+    every pixel against every tile (what gonio's windows must reproduce)."""
+    h, w = g.tile_index.shape
+    px = g.ortho_scale / w
+    half = g.tile_size / 2.0
+    wi = np.asarray(light_dir, float) / np.linalg.norm(light_dir)
+    n = np.array([t.normal for t in g.tiles])
+    u = np.array([t.tangent for t in g.tiles])
+    v = np.cross(n, u)
+    basis = common.camera_basis(g.view_dir, None)
+    right, up = basis[:, 0], basis[:, 1]
+    col, row = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    index = np.full((h, w), -1)
+    for k, c in enumerate(g.centres):
+        corners = [c + a * half * u[k] + b * half * v[k] for a, b in
+                   ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        q = np.array([[p @ right / px + w / 2.0, h / 2.0 - p @ up / px] for p in corners])
+        area = sum(q[i, 0] * q[i - 3, 1] - q[i - 3, 0] * q[i, 1] for i in range(4))
+        d = np.min([np.sign(area) * ((q[i - 3] - q[i])[0] * (row - q[i, 1])
+                                     - (q[i - 3] - q[i])[1] * (col - q[i, 0]))
+                    / np.hypot(*(q[i - 3] - q[i])) for i in range(4)], axis=0)
+        index[d >= 0] = k
+    shadowed = np.zeros((h, w), bool)
+    for r, c in zip(*np.nonzero(g.inside)):
+        p = g.position[r, c]
+        for m, cm in enumerate(g.centres):
+            if m == index[r, c] or abs(wi @ n[m]) < 1e-12:
+                continue
+            t = (cm - p) @ n[m] / (wi @ n[m])
+            q = p + t * wi - cm
+            if t > 1e-9 and max(abs(q @ u[m]), abs(q @ v[m])) <= half + px:
+                shadowed[r, c] = True
+    return index, shadowed
+
+
+@pytest.mark.parametrize("light", [(0.3, 0.2, 0.93), (1.0, 0.0, 0.05), (0.99, 0.14, 0.014),
+                                   (-0.5, 0.8, 0.3), (0.0, 1.0, 1e-7)])
+def test_gonio_plan_finds_what_every_pixel_against_every_tile_finds(light):
+    """The plan looks for a tile's pixels and shadows in a window of the
+    image about it (the robustness tests' EEVEE bench has 12,960 tiles);
+    the same as every pixel against every tile, lights from high to in the
+    image plane."""
+    g = gonio.plan_gonio(light_dir=light, resolution=(72, 60))
+    index, shadowed = _brute_force_coverage_and_shadows(g, light)
+    assert np.array_equal(g.tile_index, index)
+    assert np.array_equal(g.shadowed, shadowed)
+    if light[2] < 0.1:
+        assert shadowed.sum() > 50  # the low lights cast shadows
+
+
 def test_a_case_with_ward_own_alphas_has_wards_status():
     """Ward's alpha_x and alpha_y are its own sockets, not the microfacet
     model's width mode: its case resolves to Ward's variant (the case once

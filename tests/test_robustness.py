@@ -38,6 +38,8 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -408,15 +410,24 @@ def linked_material(bpy, variant):
 
 class Bench:
     """The tile grid, ``rows`` rows of GRID tiles (a case to a row), and the
-    renders."""
+    renders.  ``blocks``: that many such grids side by side (a case slot
+    ``b * rows + r`` is row r of block b; :meth:`block` cuts a render); one
+    block's rows are as far as the tiles go before float32 positions tilt
+    their normals (``gonio``'s check, 1e-5)."""
 
-    def __init__(self, bpy, rows=GRID, name="robustness"):
+    def __init__(self, bpy, rows=GRID, name="robustness", blocks=1):
         self.bpy = bpy
         self.rows = rows
-        self.tiles = GRID * rows
-        self.g = gonio.build_gonio_scene(None, light_dir=LIGHT, resolution=(RES, rows * PX),
-                                         tiles=_tiles(rows), osl=True, name=name, columns=GRID)
-        assert self.g.ortho_scale == GRID
+        self.columns = GRID * blocks
+        self.tiles = self.columns * rows
+        self.g = gonio.build_gonio_scene(None, light_dir=LIGHT,
+                                         resolution=(RES * blocks, rows * PX),
+                                         tiles=_tiles(rows * blocks), osl=True, name=name,
+                                         columns=self.columns)
+        assert self.g.ortho_scale == self.columns
+        # tile k's case slot
+        self.slot = [(k % self.columns) // GRID * rows + k // self.columns
+                     for k in range(self.tiles)]
         # Keep the compiled shaders between renders: only the attributes change
         # (a render then takes ~20 ms instead of ~0.5 s of OSL optimisation).
         self.g.scene.render.use_persistent_data = True
@@ -471,7 +482,7 @@ class Bench:
             width = 1 if inp.kind == "VALUE" else 3
             data = np.empty((self.tiles, width), np.float64)
             for k in range(self.tiles):
-                values = rows[k // GRID] if k // GRID < len(rows) else {}
+                values = rows[self.slot[k]] if self.slot[k] < len(rows) else {}
                 v = values.get(inp.name, inp.default)
                 if callable(v):
                     v = v(self.normals[k], self.tangents[k])
@@ -484,6 +495,11 @@ class Bench:
                               | (stored >= np.finfo(np.float32).tiny)), inp.name
             self._attribute(attr_name(inp.name), inp.kind, data)
         self.mesh.update()
+
+    def block(self, img, b):
+        """Block ``b`` of a render: its rows of GRID tiles, as one block's
+        render would be."""
+        return img[:, b * RES:(b + 1) * RES]
 
     def render(self):
         t0 = time.perf_counter()
@@ -506,15 +522,16 @@ def bench(bpy):
     _bench_stats(b)
 
 
-# Rows of the EEVEE tests' bench: every case of a variant in one render.  An
-# EEVEE render costs about 2 s here whatever its size (software OpenGL), a
-# Cycles render of the bench 20 ms.
+# The EEVEE tests' bench: every case of every variant in one render, a
+# block of EEVEE_ROWS rows a variant.  An EEVEE render costs about 2 s here
+# at the size of one block (software OpenGL), a Cycles render of the 12-row
+# bench 20 ms.
 EEVEE_ROWS = 9 * GRID
 
 
 @pytest.fixture(scope="module")
 def eevee_bench(bpy):
-    b = Bench(bpy, rows=EEVEE_ROWS, name="robustness_eevee")
+    b = Bench(bpy, rows=EEVEE_ROWS, name="robustness_eevee", blocks=len(VARIANTS))
     yield b
     _bench_stats(b)
 
@@ -554,31 +571,45 @@ def check_rows(bad_img, ref_img, cases, where):
     return problems
 
 
-def linked_group_material(bpy, variant, inf_by_product=False):
+def slot_name(i):
+    """The attribute of a variant's i-th input on the EEVEE bench."""
+    return f"slot{i}"
+
+
+def linked_group_material(bpy, variant, inf_by_product=False, slots=False):
     """The variant's group forced to native nodes, every numeric input
-    socket linked from the face attribute rm_<input> (``inf_by_product``:
-    see link_attribute)."""
+    socket linked from the face attribute rm_<input>, and the output picked
+    by the attribute rm_output.  ``inf_by_product``: see link_attribute.
+    ``slots`` (the EEVEE bench): the i-th input from rm_<slot_name(i)>, a
+    vector attribute (a float its X), and the output picked by the factor
+    of the Mix Shader named "output" (0 Direct, 1 BSDF), so that every
+    variant reads the same few attributes."""
     api, nodes = _api(bpy)
     mat, tree, out = _new_material(bpy, "rob_native_" + variant.id)
     node = api.add_model(mat, variant.model, mode="exact", backend="native",
                          **_add_params(variant))
-    for inp in variant_inputs(variant).values():
+    for i, inp in enumerate(variant_inputs(variant).values()):
         try:
             socket = nodes.input_socket(node, inp.name)
         except KeyError:
             continue  # the variant's group has no such socket (another width mode)
-        link_attribute(tree, socket, attr_name(inp.name), inp.kind, inf_by_product)
+        if slots:
+            link_attribute(tree, socket, attr_name(slot_name(i)), "VECTOR"
+                           if inp.kind != "VALUE" else "VALUE", inf_by_product)
+        else:
+            link_attribute(tree, socket, attr_name(inp.name), inp.kind, inf_by_product)
     mix = tree.nodes.new("ShaderNodeMixShader")
-    tree.links.new(_attribute_node(tree, "rm_output").outputs["Fac"], mix.inputs[0])
+    mix.name = "output"
+    if not slots:
+        tree.links.new(_attribute_node(tree, "rm_output").outputs["Fac"], mix.inputs[0])
     tree.links.new(nodes.output_socket(node, "Direct"), mix.inputs[1])
     tree.links.new(nodes.output_socket(node, "BSDF"), mix.inputs[2])
     tree.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
 
 
-def render_linked_cases(bench, variant, cases, material=None, inf_by_product=False):
-    """Render the cases a bench's rows at a time through the attribute links
-    (``inf_by_product``: see link_attribute; ``material`` must link so too);
+def render_linked_cases(bench, variant, cases, material=None):
+    """Render the cases a bench's rows at a time through the attribute links;
     return the problems found."""
     bpy = bench.bpy
     mat = (material or linked_material)(bpy, variant)
@@ -590,10 +621,9 @@ def render_linked_cases(bench, variant, cases, material=None, inf_by_product=Fal
         chunk = cases[start:start + bench.rows]
         for output in ("Direct", "BSDF"):
             bench.set_output(output)
-            bench.set_rows(inputs, [c.values for c in chunk], inf_by_product)
+            bench.set_rows(inputs, [c.values for c in chunk])
             bad = bench.render()
-            bench.set_rows(inputs, [c.ref if c.ref is not None else {} for c in chunk],
-                           inf_by_product)
+            bench.set_rows(inputs, [c.ref if c.ref is not None else {} for c in chunk])
             ref = bench.render()
             problems += check_rows(bad, ref, chunk, f"{variant.id} {output}")
             nonzero[output] += sum(bool(np.any(_row(ref, r) > 0)) for r in range(len(chunk)))
@@ -725,7 +755,7 @@ def test_what_eevee_makes_of_an_infinite_face_attribute(eevee_bench):
     bench.set_materials([mat], [0] * bench.tiles)
     values = [INF, -INF, 0.5, INF_STORED, -INF_STORED]
     x = np.zeros((bench.tiles, 3))
-    x[:, 0] = [values[k // GRID % len(values)] for k in range(bench.tiles)]
+    x[:, 0] = [values[k // bench.columns % len(values)] for k in range(bench.tiles)]
     bench._attribute(attr_name("x"), "VECTOR", x)
     bench.mesh.update()
     with _eevee(bench.g.scene):
@@ -744,39 +774,104 @@ def test_what_eevee_makes_of_an_infinite_face_attribute(eevee_bench):
             assert got == want[r % len(values)], (engine, r, got)
 
 
-EEVEE_VARIANTS = [v for v in VARIANTS if v.id in ("lambert", "phong", "ward",
-                                                   "microfacet_alpha_conductor")]
-
-
-# Blender's GPU_MAX_ATTR: EEVEE reads at most 15 attributes a material and
-# silently leaves the rest unread (one more input would make the test vacuous).
+# Blender's GPU_MAX_ATTR: EEVEE reads at most 15 attributes a mesh (all its
+# materials' together), and beyond that leaves some unread without failing
+# the render (those inputs would read 0 in the bad and the clamped render
+# alike); a material that asks for more than 15 itself fails to compile
+# ("uses too many attributes") and renders a stand-in colour.
 EEVEE_MAX_ATTRIBUTES = 15
+# what the groups read besides the linked inputs: the UV map and its tangent
+# (the default tangent)
+EEVEE_GROUP_ATTRIBUTES = 2
 
 
 def _eevee_material(bpy, variant):
-    mat = linked_group_material(bpy, variant, inf_by_product=True)
-    read = {n.attribute_name for n in mat.node_tree.nodes if n.type == 'ATTRIBUTE'}
-    # one more for the UV map of the groups' default tangent
-    assert len(read) + 1 <= EEVEE_MAX_ATTRIBUTES, (variant.id, sorted(read))
-    return mat
+    return linked_group_material(bpy, variant, inf_by_product=True, slots=True)
 
 
-@pytest.mark.parametrize("variant", EEVEE_VARIANTS, ids=lambda v: v.id)
-def test_bad_values_through_links_render_like_the_limit_in_eevee(eevee_bench, variant):
+def _eevee_cases(variant):
+    return [c for c in variant_cases(variant) if c.label != "tangent along the normal"]
+
+
+@contextlib.contextmanager
+def _stderr_to(path):
+    """Blender's own messages (C code, file descriptor 2) into ``path``."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with open(path, "w") as f:
+        os.dup2(f.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+@pytest.fixture(scope="module")
+def eevee_renders(eevee_bench, tmp_path_factory):
+    """Every variant's cases on the EEVEE bench, a block each with the
+    variant's material, its inputs in the shared attributes of
+    slot_name(i), in one render per output of the bad values and one of
+    their clamped values: images[output, "bad" or "ref"]."""
+    bench = eevee_bench
+    bpy = bench.bpy
+    slots = max(len(variant_inputs(v)) for v in VARIANTS)
+    inputs = {slot_name(i): Input(slot_name(i), "VECTOR", (0.0, 0.0, 0.0))
+              for i in range(slots)}
+    materials = [_eevee_material(bpy, v) for v in VARIANTS]
+    read = {n.attribute_name for m in materials for n in m.node_tree.nodes
+            if n.type == 'ATTRIBUTE'}
+    assert len(read) + EEVEE_GROUP_ATTRIBUTES <= EEVEE_MAX_ATTRIBUTES, sorted(read)
+    bench.set_materials(materials, [k % bench.columns // GRID for k in range(bench.tiles)])
+    images = {}
+    log = tmp_path_factory.mktemp("eevee") / "stderr.txt"
+    with _eevee(bench.g.scene), _stderr_to(log):
+        for output in ("Direct", "BSDF"):
+            for m in materials:
+                m.node_tree.nodes["output"].inputs[0].default_value = \
+                    {"Direct": 0.0, "BSDF": 1.0}[output]
+            for side in ("bad", "ref"):
+                rows = [{} for _ in range(bench.rows * len(VARIANTS))]
+                for b, v in enumerate(VARIANTS):
+                    names = {n: slot_name(i) for i, n in enumerate(variant_inputs(v))}
+                    defaults = {names[n]: inp.default for n, inp in variant_inputs(v).items()}
+                    rows[b * bench.rows:(b + 1) * bench.rows] = [defaults] * bench.rows
+                    for j, c in enumerate(_eevee_cases(v)):
+                        assert j < bench.rows, v.id  # else raise EEVEE_ROWS
+                        given = c.values if side == "bad" else (c.ref or {})
+                        rows[b * bench.rows + j] = {**defaults,
+                                                    **{names[n]: x for n, x in given.items()}}
+                bench.set_rows(inputs, rows, inf_by_product=True)
+                images[output, side] = bench.render()
+    bench.mesh.materials.clear()
+    for m in materials:
+        bpy.data.materials.remove(m)
+    messages = log.read_text()
+    assert "too many attributes" not in messages, messages[-2000:]
+    return images
+
+
+@pytest.mark.parametrize("variant", VARIANTS, ids=lambda v: v.id)
+def test_bad_values_through_links_render_like_the_limit_in_eevee(eevee_bench, eevee_renders,
+                                                                 variant):
     """The same cases through the native nodes in EEVEE (software EGL,
-    half-float output); bit-identical to the limit's render.  The
-    infinities are made in the shader (inf_by_product; the test above says
-    why).  Left out: a tangent along the normal: computed here from the
-    tile's exact normal, it renders 0.7 % off the fallback's render in
-    EEVEE (Ward, 48 pixels), where Cycles matches to 1e-6.  The likely
-    cause: the GPU's normals are quantised, so the tangent is not along
-    EEVEE's normal within the 1e-6 at which the graphs take it for one."""
-    cases = [c for c in variant_cases(variant) if c.label != "tangent along the normal"]
-    assert len(cases) <= eevee_bench.rows  # one render an output, else raise EEVEE_ROWS
+    half-float output), every variant's in one render (``eevee_renders``);
+    bit-identical to the limit's render.  The infinities are made in the
+    shader (inf_by_product; the test above says why).  Left out: a tangent
+    along the normal: computed here from the tile's exact normal, it
+    renders 0.7 % off the fallback's render in EEVEE (Ward, 48 pixels),
+    where Cycles matches to 1e-6.  The likely cause: the GPU's normals are
+    quantised, so the tangent is not along EEVEE's normal within the 1e-6
+    at which the graphs take it for one."""
+    cases = _eevee_cases(variant)
     assert any(_is_infinite(v) for c in cases for v in c.values.values())
-    with _eevee(eevee_bench.g.scene):
-        problems, nonzero = render_linked_cases(eevee_bench, variant, cases,
-                                                _eevee_material, inf_by_product=True)
+    block = VARIANTS.index(variant)
+    problems, nonzero = [], {}
+    for output in ("Direct", "BSDF"):
+        bad, ref = (eevee_bench.block(eevee_renders[output, side], block)
+                    for side in ("bad", "ref"))
+        problems += check_rows(bad, ref, cases, f"{variant.id} {output}")
+        nonzero[output] = sum(bool(np.any(_row(ref, r) > 0)) for r in range(len(cases)))
     print(f"{variant.id} EEVEE: {len(cases)} cases, non-black references: {nonzero}")
     assert not problems, "\n".join(problems)
     for output, count in nonzero.items():

@@ -236,6 +236,16 @@ def _tile_frames(tiles):
     return n, u, v
 
 
+def _span(coords, n):
+    """``(start, stop)`` of the pixels (centres at index + 0.5) that
+    continuous pixel coordinates from min(coords) to max(coords) can reach,
+    a pixel wider each side, within 0..n."""
+    lo, hi = min(coords), max(coords)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return 0, n
+    return max(0, math.floor(lo) - 1), min(n, math.ceil(hi) + 1)
+
+
 def _compute_geometry(tiles, centres, size, basis, light_dir, resolution, ortho_scale, erode):
     w, h = resolution
     px = ortho_scale / w
@@ -250,24 +260,30 @@ def _compute_geometry(tiles, centres, size, basis, light_dir, resolution, ortho_
 
     tile_index = np.full((h, w), -1, dtype=np.int64)
     inside = np.zeros((h, w), dtype=bool)
+    depths = []
     for k, c in enumerate(centres):
         corners = [c + sa * half * U[k] + sb * half * V[k]
                    for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        depths += [float(np.dot(p, wo)) for p in corners]
         q = np.array([[np.dot(p, right) / px + w / 2.0, h / 2.0 - np.dot(p, up) / px]
                       for p in corners])
         area = sum(q[i, 0] * q[(i + 1) % 4, 1] - q[(i + 1) % 4, 0] * q[i, 1] for i in range(4))
         orient = 1.0 if area > 0 else -1.0
-        dmin = np.full((h, w), np.inf)
+        # the pixels whose centres (column + 0.5, row + 0.5) can lie in the
+        # quad: its bounding box, a pixel wider (the same test, on fewer pixels)
+        win = (slice(*_span(q[:, 1], h)), slice(*_span(q[:, 0], w)))
+        dmin = np.full(U_pix[win].shape, np.inf)
         for i in range(4):
             a, b = q[i], q[(i + 1) % 4]
             e = b - a
-            d = orient * (e[0] * (V_pix - a[1]) - e[1] * (U_pix - a[0])) / np.hypot(*e)
+            d = orient * (e[0] * (V_pix[win] - a[1]) - e[1] * (U_pix[win] - a[0])) \
+                / np.hypot(*e)
             dmin = np.minimum(dmin, d)
         covered = dmin >= 0.0
-        if np.any(covered & (tile_index >= 0)):
+        if np.any(covered & (tile_index[win] >= 0)):
             raise AssertionError("tile projections overlap")
-        tile_index[covered] = k
-        inside |= dmin >= erode
+        tile_index[win][covered] = k
+        inside[win] |= dmin >= erode
 
     normal = np.zeros((h, w, 3))
     tangent = np.zeros((h, w, 3))
@@ -286,23 +302,37 @@ def _compute_geometry(tiles, centres, size, basis, light_dir, resolution, ortho_
     # (umbra: the same against tiles shrunk by one pixel: surely in shadow)
     shadowed = np.zeros((h, w), dtype=bool)
     umbra = np.zeros((h, w), dtype=bool)
-    rows, cols = np.nonzero(inside)
-    P = position[rows, cols]
-    own = tile_index[rows, cols]
-    hit = np.zeros(len(P), dtype=bool)
-    sure = np.zeros(len(P), dtype=bool)
+    # Only pixels near tile m can be shadowed by it: the ray from a pixel's
+    # point P meets m's plane at Q, a depth (along wo) of at most ``spread``
+    # from P, so across the view at most reach = spread |wi x wo| / |wi . wo|
+    # from P; Q counts within (half + px) sqrt 2 of m's centre.  A window of
+    # the image that wide (and a pixel more) about the centre holds every
+    # pixel the test below could find (all of them with a light in the
+    # image plane).
+    cos_light = float(np.dot(wi, wo))
+    spread = max(depths) - min(depths)
+    if abs(cos_light) > 1e-6:
+        reach = spread * math.sqrt(max(0.0, 1.0 - cos_light ** 2)) / abs(cos_light)
+        radius = (reach + (half + px) * math.sqrt(2.0)) / px + 1.0
+    else:
+        radius = math.inf
     for m, cm in enumerate(centres):
         denom = float(np.dot(wi, N[m]))
         if abs(denom) < 1e-12:
             continue
+        cu, cv = np.dot(cm, right) / px + w / 2.0, h / 2.0 - np.dot(cm, up) / px
+        win = (slice(*_span((cv - radius, cv + radius), h)),
+               slice(*_span((cu - radius, cu + radius), w)))
+        sel = inside[win]
+        P = position[win][sel]
+        if not len(P):
+            continue
         tt = ((cm - P) @ N[m]) / denom
         q = P + tt[:, None] * wi - cm
         extent = np.maximum(np.abs(q @ U[m]), np.abs(q @ V[m]))
-        ahead = (own != m) & (tt > 1e-9)
-        hit |= ahead & (extent <= half + px)
-        sure |= ahead & (extent <= half - px)
-    shadowed[rows, cols] = hit
-    umbra[rows, cols] = sure
+        ahead = (tile_index[win][sel] != m) & (tt > 1e-9)
+        shadowed[win][sel] |= ahead & (extent <= half + px)
+        umbra[win][sel] |= ahead & (extent <= half - px)
 
     mask = inside & ~shadowed
     wi_img = np.where(on[..., None], wi, 0.0)
