@@ -374,7 +374,7 @@ def link_attribute(tree, socket, name, kind, inf_by_product=False):
     which is not always x.  ``inf_by_product``: the attribute times
     INF_FACTOR, for EEVEE, which does not read an infinite face attribute as
     inf (``test_what_eevee_makes_of_an_infinite_face_attribute``).  No
-    attribute is added: EEVEE reads at most 15 a material (GPU_MAX_ATTR)."""
+    attribute is added: EEVEE reads at most 15 a mesh (EEVEE_MAX_ATTRIBUTES)."""
     attr = _attribute_node(tree, name)
     if kind == "VALUE":
         sep = tree.nodes.new("ShaderNodeSeparateXYZ")
@@ -524,8 +524,8 @@ def bench(bpy):
 
 # The EEVEE tests' bench: every case of every variant in one render, a
 # block of EEVEE_ROWS rows a variant.  An EEVEE render costs about 2 s here
-# at the size of one block (software OpenGL), a Cycles render of the 12-row
-# bench 20 ms.
+# at the size of one block and about 4 s for all ten (software OpenGL), a
+# Cycles render of the 12-row bench 20 ms.
 EEVEE_ROWS = 9 * GRID
 
 
@@ -594,8 +594,8 @@ def linked_group_material(bpy, variant, inf_by_product=False, slots=False):
         except KeyError:
             continue  # the variant's group has no such socket (another width mode)
         if slots:
-            link_attribute(tree, socket, attr_name(slot_name(i)), "VECTOR"
-                           if inp.kind != "VALUE" else "VALUE", inf_by_product)
+            kind = "VALUE" if inp.kind == "VALUE" else "VECTOR"
+            link_attribute(tree, socket, attr_name(slot_name(i)), kind, inf_by_product)
         else:
             link_attribute(tree, socket, attr_name(inp.name), inp.kind, inf_by_product)
     mix = tree.nodes.new("ShaderNodeMixShader")
