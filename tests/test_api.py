@@ -419,9 +419,9 @@ def test_add_model_compiles_osl_in_a_plain_bpy_process(tmp_path):
     )
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONSTARTUP")}
     env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
-    for name in ("CONFIG", "SCRIPTS", "DATAFILES", "EXTENSIONS"):
-        (tmp_path / name).mkdir()
-        env[f"BLENDER_USER_{name}"] = str(tmp_path / name)
+    for var, sub in bpy_env._USER_DIRS.items():  # throwaway user folders, as prepare() makes
+        (tmp_path / sub).mkdir()
+        env[var] = str(tmp_path / sub)
     env["TMPDIR"] = str(tmp_path)
     out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path,
                          capture_output=True, text=True, timeout=300)

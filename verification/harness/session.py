@@ -85,21 +85,14 @@ def use_bundled_site_packages() -> list[str]:
 
     Safe to call before bpy is imported, and idempotent.  Raises if a
     different OpenImageIO (e.g. pip's) is already imported: ``oslquery`` would
-    then fail with a pybind11 type error.
+    then fail with a pybind11 type error (the extension's own
+    :func:`~addon.backends.osl.compile.put_first_on_path`, which it uses
+    where ``oslquery`` does not import).
     """
+    from addon.backends.osl.compile import put_first_on_path
+
     paths = [str(p) for p in bundled_site_packages()]
-    for p in reversed(paths):
-        if p in sys.path:
-            sys.path.remove(p)
-        sys.path.insert(0, p)
-    oiio = sys.modules.get("OpenImageIO")
-    if oiio is not None and paths:
-        origin = str(Path(getattr(oiio, "__file__", "") or "").resolve())
-        if not any(origin.startswith(str(Path(p).resolve())) for p in paths):
-            raise RuntimeError(
-                f"OpenImageIO was imported from {origin} before Blender's bundled "
-                "copy was put on sys.path; oslquery cannot work in this process"
-            )
+    put_first_on_path(paths)
     return paths
 
 

@@ -141,14 +141,33 @@ def _raise_compile_error(node, output, messages):
         f"datablock, headers inlined):\n{detail}")
 
 
+def put_first_on_path(paths) -> None:
+    """Put ``paths`` (Blender's bundled site-packages) first on ``sys.path``,
+    in order, so that Cycles' ``oslquery`` gets the bundled OpenImageIO it
+    was built against.  Raises :class:`OSLCompileError` where another
+    OpenImageIO is already imported (``oslquery`` cannot work in that
+    process).  The test harness puts them there this way too, before it
+    imports ``bpy``."""
+    paths = [str(p) for p in paths]
+    for p in reversed(paths):
+        if p in sys.path:
+            sys.path.remove(p)
+        sys.path.insert(0, p)
+    oiio = sys.modules.get("OpenImageIO")
+    if oiio is not None and paths:
+        origin = str(Path(getattr(oiio, "__file__", "") or "").resolve())
+        if not any(origin.startswith(str(Path(p).resolve())) for p in paths):
+            raise OSLCompileError(
+                f"OpenImageIO was imported from {origin} before Blender's bundled copy "
+                f"({', '.join(paths)}) was put on sys.path; oslquery cannot work in this "
+                f"process: compile before importing OpenImageIO")
+
+
 def _ensure_oslquery() -> None:
     """Make Cycles' ``oslquery`` importable, which its script-node update
     needs.  Blender's own Python finds it; the ``bpy`` module (the pip
     wheel) ships it in Blender's bundled site-packages but leaves that
-    folder off ``sys.path``: put it first there, as Blender does, so that
-    ``oslquery`` gets the bundled OpenImageIO it was built against.  Raises
-    :class:`OSLCompileError` where another OpenImageIO is already imported
-    (``oslquery`` cannot work in that process)."""
+    folder off ``sys.path``: :func:`put_first_on_path` puts it there."""
     try:
         import oslquery  # noqa: F401
         return
@@ -157,25 +176,13 @@ def _ensure_oslquery() -> None:
     import bpy
 
     local = Path(bpy.utils.resource_path('LOCAL'))
-    bundled = [str(p) for p in sorted(local.glob("python/lib/python3*/site-packages"))]
-    oiio = sys.modules.get("OpenImageIO")
-    if oiio is not None:
-        origin = str(Path(getattr(oiio, "__file__", "") or "").resolve())
-        if not any(origin.startswith(str(Path(p).resolve())) for p in bundled):
-            where = ", ".join(bundled) or "Blender's bundled site-packages"
-            raise OSLCompileError(
-                f"cannot compile OSL shaders in this process: Cycles' oslquery needs "
-                f"Blender's bundled OpenImageIO, and another one was imported first "
-                f"({origin}); compile before importing OpenImageIO, or put {where} "
-                f"first on sys.path")
-    for p in reversed(bundled):
-        if p not in sys.path:
-            sys.path.insert(0, p)
+    bundled = sorted(local.glob("python/lib/python3*/site-packages"))
+    put_first_on_path(bundled)
     try:
         import oslquery  # noqa: F401,F811
     except ImportError as e:
         raise OSLCompileError(f"cannot compile OSL shaders: Cycles' oslquery does not "
-                              f"import ({e}); looked in {bundled}") from e
+                              f"import ({e}); looked in {[str(p) for p in bundled]}") from e
 
 
 def compile_script_node(node) -> None:
