@@ -73,6 +73,23 @@ SWEEPS = 1
 GRAZING = 0.03  # a node's error up to 85 deg may rise this much ...
 PRICE = 10.0    # ... and what a rise beyond that costs in the node fit's objective
 ITERATIONS = 30  # Nelder-Mead iterations per member width (the fitter's effort)
+SAMPLES_KEPT = 256  # the model's samples kept (a node's three widths at every view node: ~30)
+
+_samples_kept: dict = {}
+
+
+def _samples(target, value: float, c: float) -> M.Samples:
+    """:func:`.mixtures.samples`, kept: a node's fit asks for the same
+    widths and views at every step of its search (the members' values
+    stay in the samples' own cache as well).  The same arrays as made
+    afresh; the oldest dropped beyond SAMPLES_KEPT."""
+    key = (target.key, target.model, tuple(sorted(target.enums.items())), target.width,
+           float(value), float(c))
+    if key not in _samples_kept:
+        if len(_samples_kept) >= SAMPLES_KEPT:
+            _samples_kept.pop(next(iter(_samples_kept)))
+        _samples_kept[key] = M.samples(target, float(value), float(c))
+    return _samples_kept[key]
 
 
 def halve(fit: M.Fit) -> M.Fit:
@@ -100,7 +117,7 @@ def _mixture_errors(target, value, z, w, views):
     for i, c in enumerate(views):
         if c < math.cos(M.REPORT_VIEW) - 1e-12:
             continue
-        s = M.samples(target, float(value), float(c))
+        s = _samples(target, value, c)
         A, _a = M._block(s, target.members, alphas)
         d = np.abs(A @ w[i] - s.target)
         e85 = max(e85, float(d.max()) / max(float(s.target.max()), 1e-30))
@@ -135,7 +152,7 @@ def _node_weights(target, value, z, views):
     alphas = M.alphas_from_multipliers(z, target.equivalent_alpha(value))
     out, prev = [None] * len(views), None
     for i in range(len(views) - 1, -1, -1):  # as the fitter goes, with its pull
-        s = M.samples(target, float(value), float(views[i]))
+        s = _samples(target, value, views[i])
         if views[i] < math.cos(M.FIT_VIEW) - 1e-12:
             s = dataclasses.replace(s, fit=np.ones(len(s.wi), bool), cache=s.cache)
         out[i], _e = M.solve_weights(s, target.members, alphas, prev)
