@@ -225,7 +225,9 @@ def ensure_group(model_id: str, **enums):
         try:
             _build(tree, model.id, variant)
         except Exception:
+            parts = _parts(tree)
             bpy.data.node_groups.remove(tree)
+            _remove_unused(parts)
             raise
     elif int(tree.get("rm_version", 0)) < NODES_VERSION:
         upgrade_group(tree)
@@ -352,7 +354,9 @@ def _build(tree, model_id: str, variant: dict) -> None:
     'auto'), between the Group Input and the Group Output."""
     model, _fixed, _defaults = catalogue.resolve(model_id)
     sockets = _sync_interface(tree, interface_specs(model.id, variant))
+    parts = _parts(tree)
     tree.nodes.clear()
+    _remove_unused(parts)
     group_in = tree.nodes.new("NodeGroupInput")
     group_in.location = (-700.0, 0.0)
     group_out = tree.nodes.new("NodeGroupOutput")
@@ -383,6 +387,22 @@ def _build(tree, model_id: str, variant: dict) -> None:
     tree["rm_sockets"] = sockets
     if hasattr(tree, "description"):
         tree.description = model.description
+
+
+def _parts(tree) -> list:
+    """The nested groups the native nodes of ``tree`` are built in
+    (:meth:`.backends.native.build.Builder.instantiate`)."""
+    return [n.node_tree for n in tree.nodes
+            if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
+            and n.node_tree.get("rm_part")]
+
+
+def _remove_unused(parts) -> None:
+    """Remove the parts no group uses any more (a copy of the group, made by
+    the user, still uses its parts)."""
+    for part in parts:
+        if part.users == 0:
+            bpy.data.node_groups.remove(part)
 
 
 def _build_osl(tree, model, variant, group_input) -> dict:

@@ -294,6 +294,57 @@ def test_the_largest_native_graphs_stay_compact():
                and n.props.get("operation") == "MULTIPLY_ADD") >= 7 * 20
 
 
+def _exact_gonio(verify, api, bpy, name, backend, model, params):
+    """The gonio rendered with ``model`` in exact mode under one sun."""
+    from verification.scenes import gonio
+    mat = verify.new_material(name)
+    node = api.add_model(mat, model, mode="exact", **params)
+    tree = node.node_tree
+    verify.set_sun(node, ONE_LIGHT[0], 1.0)
+    g = gonio.build_gonio_scene(mat, light_dir=ONE_LIGHT[0], resolution=RES, name=name)
+    try:
+        verify.use_backend(g.scene, backend, api)
+        img = g.render()
+    finally:
+        verify.dispose(g)
+        verify.remove_material(mat)
+    return img, g.mask, tree
+
+
+@pytest.mark.parametrize("backend", ["svm", "eevee"])
+def test_a_graph_built_in_parts_renders_as_the_graph_built_whole(verify, api, bpy, monkeypatch,
+                                                                 backend):
+    """A native plan of more than PART_SIZE nodes is built in nested groups
+    (Blender updates the whole tree at every node and link a script makes).
+    Renderers inline nested groups: the exact mode of Trowbridge-Reitz with
+    Smith and a conductor (every socket type crossing between parts) built
+    in parts of 30 nodes renders as the same plan built in one tree, pixel
+    for pixel, in Cycles with OSL off and in EEVEE."""
+    from addon import groups
+    from addon.backends.native import build as native_build
+    model, params = "microfacet", {"distribution": "trowbridge_reitz", "shadowing": "smith",
+                                   "fresnel": "conductor", "beta": 0.5}
+    images = []
+    for size in (10 ** 6, 30):
+        monkeypatch.setattr(native_build, "PART_SIZE", size)
+        img, mask, tree = _exact_gonio(verify, api, bpy, f"rm_parts_{size}", backend, model,
+                                       params)
+        parts = groups._parts(tree)
+        if size == 30:
+            types = {item.socket_type for p in parts for item in p.interface.items_tree
+                     if item.item_type == "SOCKET"}
+            assert len(parts) > 10 and types >= {"NodeSocketFloat", "NodeSocketVector",
+                                                 "NodeSocketColor", "NodeSocketShader"}, types
+        else:
+            assert not parts
+        bpy.data.node_groups.remove(tree)
+        groups._remove_unused(parts)
+        images.append(img)
+    assert mask.sum() > 100 and np.all(np.isfinite(images[0]))
+    assert images[0][mask].max() > 0.0
+    assert np.array_equal(images[0], images[1])
+
+
 def _plan(model, enums, output="BSDF"):
     from addon.backends.native import emit
     from addon.core.formulas import models as formulas

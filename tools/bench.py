@@ -10,6 +10,9 @@ Prints tables; asserts nothing (speed is measured here, never in tests):
 * count: the same ratio in instructions per frame under callgrind, which is
   repeatable where time is not (:mod:`verification.bench.count`; needs
   valgrind);
+* build: the time to add a node of a variant not yet in the file, its
+  native nodes built in nested parts and in one tree
+  (:mod:`verification.bench.build`);
 * eevee: EEVEE's shader compile time per model against a Principled BSDF,
   the peak memory of a process rendering each model (EEVEE, Cycles with OSL
   off and on), and the native node count per model
@@ -32,17 +35,22 @@ def main(argv=None):
     parser.add_argument("--reference", action="store_true", help="only the reference table")
     parser.add_argument("--render", action="store_true", help="only the render-time table")
     parser.add_argument("--count", action="store_true", help="only the instruction-count table")
+    parser.add_argument("--build", action="store_true", help="only the group build-time table")
     parser.add_argument("--eevee", action="store_true",
                         help="only the EEVEE compile-time, memory and node-count tables")
     parser.add_argument("-n", type=int, default=1_000_000, help="batch size for the reference")
     args = parser.parse_args(argv)
-    every = not (args.reference or args.render or args.count or args.eevee)
+    every = not (args.reference or args.render or args.count or args.eevee or args.build)
     if args.reference or every:
         from verification.bench import reference
         reference.bench_reference(args.n)
     if args.render or every:
         from verification.bench import render
         render.main([])
+    if args.build or every:
+        import subprocess
+        # its own process: a file holding nothing but the groups it builds
+        subprocess.run([sys.executable, "-m", "verification.bench.build"], check=False)
     if args.eevee or every:
         import subprocess
         # its own process: EEVEE's GPU context beside the render benchmarks' Cycles

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The native backend in Blender: a node plan (:mod:`.emit`) made real in a
-node tree, inside a frame, fed by the group's inputs and the shading
-point's geometry.
+node tree, inside a frame (a large plan in nested groups of at most
+PART_SIZE nodes), fed by the group's inputs and the shading point's
+geometry.
 
 Imports bpy inside the functions only.
 """
@@ -114,41 +115,50 @@ class Builder:
             return
         self.tree.links.new(self.source(src, made), socket)
 
+    def _make(self, tree, n, made, rows, frame):
+        """Node ``n`` of a plan in ``tree``, with its properties, named and
+        placed by its depth (``frame``: its parent, or None)."""
+        node = tree.nodes.new(n.type)
+        # A name of our own at once: Blender names a new node "Math",
+        # "Math.001", ... trying each suffix against every node, which
+        # grows with the square of the tree; "Math" stays free this way.
+        node.name = f"RM native {self.count + len(made)}"
+        for prop, value in n.props.items():
+            if prop == "curve":
+                _set_curve(node, value)
+            elif prop == "input_defaults":  # kept where a link is dropped
+                for key, default in value.items():
+                    set_constant(_socket(node.inputs, key), default)
+            else:
+                setattr(node, prop, value)
+        if n.label:
+            node.label = n.label
+        if frame is not None:
+            node.parent = frame
+        row = rows.get(n.depth, 0)
+        rows[n.depth] = row + 1
+        node.location = (self.origin[0] + n.depth * X_STEP, self.origin[1] - row * Y_STEP)
+        node.hide = True
+        made[n.id] = node
+        return node
+
     def instantiate(self, nodes, refs):
         """Make the plan's nodes; returns ``{output name: socket}`` (None for
-        an empty closure sum; a constant stays ``("const", value)``)."""
+        an empty closure sum; a constant stays ``("const", value)``).  A plan
+        of more than PART_SIZE nodes is made in parts (:meth:`_in_parts`)."""
+        if len(nodes) > PART_SIZE:
+            return self._in_parts(nodes, refs)
         made = {}
         rows = {}
         for n in nodes:
-            node = self.tree.nodes.new(n.type)
-            # A name of our own at once: Blender names a new node "Math",
-            # "Math.001", ... trying each suffix against every node, which
-            # grows with the square of the tree; "Math" stays free this way.
-            node.name = f"RM native {self.count + len(made)}"
-            for prop, value in n.props.items():
-                if prop == "curve":
-                    _set_curve(node, value)
-                elif prop == "input_defaults":  # kept where a link is dropped
-                    for key, default in value.items():
-                        set_constant(_socket(node.inputs, key), default)
-                else:
-                    setattr(node, prop, value)
-            if n.label:
-                node.label = n.label
-            node.parent = self.frame
-            row = rows.get(n.depth, 0)
-            rows[n.depth] = row + 1
-            node.location = (self.origin[0] + n.depth * X_STEP, self.origin[1] - row * Y_STEP)
-            node.hide = True
-            made[n.id] = node
+            self._make(self.tree, n, made, rows, self.frame)
         for n in nodes:
-            node = made[n.id]
-            for key, src in n.inputs.items():
-                sock = _socket(node.inputs, key)
-                if not sock.enabled and n.type == "ShaderNodeMath":
-                    continue
+            for sock, src in _fed(n, made[n.id]):
                 self.feed(sock, src, made)
         self.count += len(nodes)
+        return self._outputs(refs, made)
+
+    def _outputs(self, refs, made):
         out = {}
         for name, src in refs.items():
             if src is None or src[0] == "const":
@@ -156,3 +166,140 @@ class Builder:
             else:
                 out[name] = self.source(src, made)
         return out
+
+    def _in_parts(self, nodes, refs):
+        """The plan in nested node groups of at most PART_SIZE nodes each,
+        in the plan's order (a node's sources before it).  Blender updates
+        the whole tree at every node, link and value a script sets, so one
+        tree of n nodes takes time growing with n squared to build (1,300
+        nodes: 20 s); in parts, each update sees one part.  A part's inputs
+        are the sources it takes from outside (the group's inputs, the
+        geometry, earlier parts' outputs), each an interface socket of the
+        source's type, linked in the group; its outputs are what later parts
+        and the group's outputs take.  Renderers inline nested groups, so
+        the graph rendered is the same; each part is built whole before its
+        node is made in the group (an update of a used tree also updates
+        its users)."""
+        import bpy
+        order = _topological(nodes)
+        parts = [order[i:i + PART_SIZE] for i in range(0, len(order), PART_SIZE)]
+        part_of = {n.id: k for k, part in enumerate(parts) for n in part}
+        exported = {}  # node id -> its output keys read outside its part
+        for src in [s for n in order for s in n.inputs.values()
+                    if s[0] == "link" and part_of[s[1]] != part_of[n.id]] + \
+                [s for s in refs.values() if s is not None and s[0] == "link"]:
+            keys = exported.setdefault(src[1], [])
+            if src[2] not in keys:
+                keys.append(src[2])
+        outside = {}  # (node id, output key) -> output socket of a part's node in the group
+        made = {}
+        base = self.tree.name[:40]
+        for k, part in enumerate(parts):
+            sub = bpy.data.node_groups.new(f".{base} part {k + 1}", "ShaderNodeTree")
+            sub["rm_part"] = True
+            sub_in = sub.nodes.new("NodeGroupInput")
+            sub_out = sub.nodes.new("NodeGroupOutput")
+            rows = {}
+            for n in part:
+                self._make(sub, n, made, rows, None)
+            inputs = {}  # source key -> (interface identifier, socket in the group)
+            for n in part:
+                for sock, src in _fed(n, made[n.id]):
+                    if src[0] == "const":
+                        set_constant(sock, src[1])
+                        continue
+                    if src[0] == "link" and part_of[src[1]] == k:
+                        sub.links.new(_socket(made[src[1]].outputs, src[2]), sock)
+                        continue
+                    skey = tuple(src)
+                    if skey not in inputs:
+                        outer = outside[(src[1], src[2])] if src[0] == "link" \
+                            else self.source(src, made)
+                        item = sub.interface.new_socket(_port_name(src), in_out="INPUT",
+                                                        socket_type=_socket_type(outer))
+                        inputs[skey] = (item.identifier, outer)
+                    sub.links.new(_socket(sub_in.outputs, inputs[skey][0]), sock)
+            outputs = []
+            for n in part:
+                for okey in exported.get(n.id, ()):
+                    inner = _socket(made[n.id].outputs, okey)
+                    item = sub.interface.new_socket(_port_name(("link", n.id, okey)),
+                                                    in_out="OUTPUT",
+                                                    socket_type=_socket_type(inner))
+                    sub.links.new(inner, _socket(sub_out.inputs, item.identifier))
+                    outputs.append(((n.id, okey), item.identifier))
+            sub_in.location = (self.origin[0] - X_STEP, self.origin[1])
+            sub_out.location = (self.origin[0] + (max(rows) + 1) * X_STEP, self.origin[1])
+            group = self.tree.nodes.new("ShaderNodeGroup")
+            group.node_tree = sub
+            group.name = f"RM native part {k + 1}"
+            group.label = f"Native nodes, part {k + 1} of {len(parts)}"
+            group.parent = self.frame
+            group.location = (self.origin[0] + k * X_STEP, self.origin[1])
+            group.hide = True
+            for identifier, outer in inputs.values():
+                self.tree.links.new(outer, _socket(group.inputs, identifier),
+                                    verify_limits=False)
+            for key, identifier in outputs:
+                outside[key] = _socket(group.outputs, identifier)
+        self.count += len(nodes)
+        out = {}
+        for name, src in refs.items():
+            if src is not None and src[0] == "link":
+                out[name] = outside[(src[1], src[2])]
+            else:  # none, a constant, an input of the group or the geometry
+                out[name] = self._outputs({name: src}, made)[name]
+        return out
+
+
+PART_SIZE = 150  # nodes of a plan per nested group (:meth:`Builder._in_parts`)
+
+SOCKET_TYPES = {"VALUE": "NodeSocketFloat", "VECTOR": "NodeSocketVector",
+                "RGBA": "NodeSocketColor", "SHADER": "NodeSocketShader",
+                "INT": "NodeSocketInt", "BOOLEAN": "NodeSocketBool"}
+
+
+def _fed(n, node):
+    """``(input socket, source)`` for each input the plan's node ``n`` sets
+    on ``node`` (a Math node's input its operation hides is left)."""
+    for key, src in n.inputs.items():
+        sock = _socket(node.inputs, key)
+        if sock.enabled or n.type != "ShaderNodeMath":
+            yield sock, src
+
+
+def _socket_type(socket) -> str:
+    """The interface socket type that carries ``socket``'s value unchanged."""
+    try:
+        return SOCKET_TYPES[socket.type]
+    except KeyError:
+        raise TypeError(f"no interface socket for a {socket.type} socket") from None
+
+
+def _port_name(src) -> str:
+    if src[0] == "link":
+        return f"{src[1]} {src[2]}"
+    return f"{src[0]} {src[1]}"
+
+
+def _topological(nodes):
+    """The plan's nodes with every node after the nodes it links from (the
+    plan's own order where it already is)."""
+    by_id = {n.id: n for n in nodes}
+    done, order = set(), []
+    for root in nodes:
+        stack = [(root, False)]
+        while stack:
+            n, expanded = stack.pop()
+            if n.id in done:
+                continue
+            if expanded:
+                done.add(n.id)
+                order.append(n)
+                continue
+            stack.append((n, True))
+            for src in reversed(list(n.inputs.values())):
+                if src[0] == "link" and src[1] not in done:
+                    stack.append((by_id[src[1]], False))
+    return order
+
