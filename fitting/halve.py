@@ -73,7 +73,9 @@ SWEEPS = 1
 GRAZING = 0.03  # a node's error up to 85 deg may rise this much ...
 PRICE = 10.0    # ... and what a rise beyond that costs in the node fit's objective
 ITERATIONS = 30  # Nelder-Mead iterations per member width (the fitter's effort)
-SAMPLES_KEPT = 256  # the model's samples kept (a node's three widths at every view node: ~30)
+# the model's samples kept: a node's three widths at each of the 8 view
+# nodes are 24; each keeps up to 400 members' values (~2.8 MB at most)
+SAMPLES_KEPT = 64
 
 _samples_kept: dict = {}
 

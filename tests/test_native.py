@@ -294,7 +294,7 @@ def test_the_largest_native_graphs_stay_compact():
                and n.props.get("operation") == "MULTIPLY_ADD") >= 7 * 20
 
 
-def _exact_gonio(verify, api, bpy, name, backend, model, params):
+def _exact_gonio(verify, api, name, backend, model, params):
     """The gonio rendered with ``model`` in exact mode under one sun."""
     from verification.scenes import gonio
     mat = verify.new_material(name)
@@ -327,8 +327,7 @@ def test_a_graph_built_in_parts_renders_as_the_graph_built_whole(verify, api, bp
     images = []
     for size in (10 ** 6, 30):
         monkeypatch.setattr(native_build, "PART_SIZE", size)
-        img, mask, tree = _exact_gonio(verify, api, bpy, f"rm_parts_{size}", backend, model,
-                                       params)
+        img, mask, tree = _exact_gonio(verify, api, f"rm_parts_{size}", backend, model, params)
         parts = groups._parts(tree)
         if size == 30:
             types = {item.socket_type for p in parts for item in p.interface.items_tree
