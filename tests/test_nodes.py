@@ -283,6 +283,30 @@ def test_rebuilding_does_not_duplicate(nodes, bpy):
     assert len(bpy.data.texts) == counts[1]  # one text per shader, shared by variants
 
 
+def test_a_build_that_fails_leaves_no_group_and_no_part(nodes, bpy, monkeypatch):
+    """A group whose build fails after its native nodes were made (here the
+    OSL switch, made last, raises) is removed with the nested groups its
+    native nodes were built in: the file holds no group more than before."""
+    before = set(bpy.data.node_groups)
+    made = []
+    native = nodes._build_native
+
+    def build_native(*args):
+        out = native(*args)
+        made.extend(nodes._parts(args[0]))
+        return out
+
+    def switch(*_args):
+        raise RuntimeError("the switch failed")
+
+    monkeypatch.setattr(nodes, "_build_native", build_native)
+    monkeypatch.setattr(nodes, "_switch", switch)
+    with pytest.raises(RuntimeError, match="the switch failed"):
+        nodes.ensure_group("phong")
+    assert made  # Phong's native nodes are more than one part
+    assert set(bpy.data.node_groups) == before
+
+
 def test_a_foreign_group_with_the_same_name_is_not_taken(nodes, bpy):
     foreign = bpy.data.node_groups.new("RM Lambert", "ShaderNodeTree")
     tree = nodes.ensure_group("lambert")
