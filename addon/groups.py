@@ -225,9 +225,7 @@ def ensure_group(model_id: str, **enums):
         try:
             _build(tree, model.id, variant)
         except Exception:
-            parts = _parts(tree)
-            bpy.data.node_groups.remove(tree)
-            _remove_unused(parts)
+            remove_group(tree)
             raise
     elif int(tree.get("rm_version", 0)) < NODES_VERSION:
         upgrade_group(tree)
@@ -395,6 +393,14 @@ def _parts(tree) -> list:
     return [n.node_tree for n in tree.nodes
             if n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
             and n.node_tree.get("rm_part")]
+
+
+def remove_group(tree) -> None:
+    """Remove the group ``tree`` with the nested groups its native nodes
+    are built in (those no other group uses)."""
+    parts = _parts(tree)
+    bpy.data.node_groups.remove(tree)
+    _remove_unused(parts)
 
 
 def _remove_unused(parts) -> None:

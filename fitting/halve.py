@@ -68,30 +68,12 @@ import numpy as np
 
 from . import joint
 from . import mixtures as M
+from . import polish
 
 SWEEPS = 1
 GRAZING = 0.03  # a node's error up to 85 deg may rise this much ...
 PRICE = 10.0    # ... and what a rise beyond that costs in the node fit's objective
 ITERATIONS = 30  # Nelder-Mead iterations per member width (the fitter's effort)
-# the model's samples kept: a node's three widths at each of the 8 view
-# nodes are 24; each keeps up to 400 members' values (~2.8 MB at most)
-SAMPLES_KEPT = 64
-
-_samples_kept: dict = {}
-
-
-def _samples(target, value: float, c: float) -> M.Samples:
-    """:func:`.mixtures.samples`, kept: a node's fit asks for the same
-    widths and views at every step of its search (the members' values
-    stay in the samples' own cache as well).  The same arrays as made
-    afresh; the oldest dropped beyond SAMPLES_KEPT."""
-    key = (target.key, target.model, tuple(sorted(target.enums.items())), target.width,
-           float(value), float(c))
-    if key not in _samples_kept:
-        if len(_samples_kept) >= SAMPLES_KEPT:
-            _samples_kept.pop(next(iter(_samples_kept)))
-        _samples_kept[key] = M.samples(target, float(value), float(c))
-    return _samples_kept[key]
 
 
 def halve(fit: M.Fit) -> M.Fit:
@@ -110,7 +92,7 @@ def halve(fit: M.Fit) -> M.Fit:
     return M.Fit(fit.target, nodes, z, w, errors)
 
 
-def _mixture_errors(target, value, z, w, views):
+def _mixture_errors(target, value, z, w, views, get):
     """(views and lights up to 70 deg, views and lights up to 85 deg): the
     largest |mixture - model| over the peak at ``value``, members' widths
     ``z``, weights ``w`` (n_view, K) at the view nodes ``views``."""
@@ -119,7 +101,7 @@ def _mixture_errors(target, value, z, w, views):
     for i, c in enumerate(views):
         if c < math.cos(M.REPORT_VIEW) - 1e-12:
             continue
-        s = _samples(target, value, c)
+        s = get.at_cos(value, c)
         A, _a = M._block(s, target.members, alphas)
         d = np.abs(A @ w[i] - s.target)
         e85 = max(e85, float(d.max()) / max(float(s.target.max()), 1e-30))
@@ -128,22 +110,24 @@ def _mixture_errors(target, value, z, w, views):
     return e70, e85
 
 
-def _local_error(fit: M.Fit, j: int, z, w, views) -> tuple:
+def _local_error(fit: M.Fit, j: int, z, w, views, get=None) -> tuple:
     """(up to 70 deg, up to 85 deg): the largest error of node j (holding
     ``z``, ``w``) and of the intervals half way to its neighbours (widths and
-    weights interpolated as the shaders do), at the view nodes."""
+    weights interpolated as the shaders do), at the view nodes (``get``:
+    the node's :class:`.polish.SampleCache`, made here if not given)."""
     t, nodes = fit.target, fit.width_values
-    e70, e85 = _mixture_errors(t, float(nodes[j]), z, w, views)
+    get = get or polish.SampleCache(t)
+    e70, e85 = _mixture_errors(t, float(nodes[j]), z, w, views, get)
     for i in (j - 1, j + 1):
         if 0 <= i < len(nodes):
             a, b = _mixture_errors(t, 0.5 * float(nodes[i] + nodes[j]),
                                    0.5 * (np.asarray(z) + fit.multipliers[i]),
-                                   0.5 * (np.asarray(w) + fit.weights[i]), views)
+                                   0.5 * (np.asarray(w) + fit.weights[i]), views, get)
             e70, e85 = max(e70, a), max(e85, b)
     return e70, e85
 
 
-def _node_weights(target, value, z, views):
+def _node_weights(target, value, z, views, get=None):
     """The weights (n_view, K) at every view node for the members' widths
     ``z``: the fitter's linear programme (:func:`.mixtures.solve_weights`),
     with the continuity pull from one view node to the next, at views up
@@ -151,10 +135,11 @@ def _node_weights(target, value, z, views):
     every light up to 85 deg (the fitter's own node fit solves those
     against lights up to 70 deg only, which is what raised the error
     beyond 70 deg)."""
+    get = get or polish.SampleCache(target)
     alphas = M.alphas_from_multipliers(z, target.equivalent_alpha(value))
     out, prev = [None] * len(views), None
     for i in range(len(views) - 1, -1, -1):  # as the fitter goes, with its pull
-        s = _samples(target, value, views[i])
+        s = get.at_cos(value, views[i])
         if views[i] < math.cos(M.FIT_VIEW) - 1e-12:
             s = dataclasses.replace(s, fit=np.ones(len(s.wi), bool), cache=s.cache)
         out[i], _e = M.solve_weights(s, target.members, alphas, prev)
@@ -162,7 +147,7 @@ def _node_weights(target, value, z, views):
     return np.array(out)
 
 
-def _fit_node(fit: M.Fit, j: int, z0, b85, views):
+def _fit_node(fit: M.Fit, j: int, z0, b85, views, get):
     """Nelder-Mead on node j's members' widths from ``z0``: the largest
     error of the node and its intervals up to 70 deg, plus PRICE times its
     error up to 85 deg beyond ``b85`` + GRAZING; the weights by
@@ -176,14 +161,14 @@ def _fit_node(fit: M.Fit, j: int, z0, b85, views):
     def objective(z):
         if np.any(z < M.Z_MIN) or np.any(z > M.Z_MAX) or any(z[a] > z[b] - 0.05 for a, b in same):
             return 10.0  # the fitter's box, and members of one kind keep their order
-        e70, e85 = _local_error(fit, j, z, _node_weights(t, value, z, views), views)
+        e70, e85 = _local_error(fit, j, z, _node_weights(t, value, z, views, get), views, get)
         return e70 + PRICE * max(0.0, e85 - b85 - GRAZING)
 
     z0 = np.clip(np.asarray(z0, float), M.Z_MIN + 0.1, M.Z_MAX - 0.1)
     res = minimize(objective, z0, method="Nelder-Mead",
                    options=dict(maxiter=ITERATIONS * len(z0), xatol=2e-3, fatol=2e-5))
-    w = _node_weights(t, value, res.x, views)
-    return (*_local_error(fit, j, res.x, w, views), res.x, w)
+    w = _node_weights(t, value, res.x, views, get)
+    return (*_local_error(fit, j, res.x, w, views, get), res.x, w)
 
 
 def refit(fit: M.Fit, free, log=print) -> M.Fit:
@@ -197,7 +182,10 @@ def refit(fit: M.Fit, free, log=print) -> M.Fit:
     order = sorted(free, key=lambda j: (j % 2, j))
     for sweep in range(SWEEPS):
         for j in order:
-            b70, b85 = _local_error(out, j, out.multipliers[j], out.weights[j], views)
+            # the model's samples at the node's widths and views, made once
+            # for its whole search (the members' values kept in them too)
+            get = polish.SampleCache(out.target)
+            b70, b85 = _local_error(out, j, out.multipliers[j], out.weights[j], views, get)
             # its own widths, its narrower neighbour's, and its own kicked
             # as the fitter kicks a start (the search is local)
             own = out.multipliers[j]
@@ -205,7 +193,7 @@ def refit(fit: M.Fit, free, log=print) -> M.Fit:
                 + [own + d[:len(own)] for d in M._KICKS]
             best = (b70, b85, None, None)
             for z0 in starts:
-                e70, e85, z, w = _fit_node(out, j, z0, b85, views)
+                e70, e85, z, w = _fit_node(out, j, z0, b85, views, get)
                 if e70 < best[0] and e85 <= b85 + GRAZING:
                     best = (e70, e85, z, w)
             if best[2] is not None:

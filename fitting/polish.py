@@ -99,6 +99,14 @@ class SampleCache:
             self.cache[key] = M.samples(self.target, float(value), math.cos(deg * M.DEG))
         return self.cache[key]
 
+    def at_cos(self, value, cos_o):
+        """The samples at the view whose cosine is ``cos_o`` (the view nodes
+        are cosines: made from it as given, not from an angle)."""
+        key = (round(float(value), 12), "cos", float(cos_o))
+        if key not in self.cache:
+            self.cache[key] = M.samples(self.target, float(value), float(cos_o))
+        return self.cache[key]
+
 
 def _window(fit, j):
     """``(primary, secondary)``: the widths whose mixture depends on node j

@@ -336,8 +336,7 @@ def test_a_graph_built_in_parts_renders_as_the_graph_built_whole(verify, api, bp
                                                  "NodeSocketColor", "NodeSocketShader"}, types
         else:
             assert not parts
-        bpy.data.node_groups.remove(tree)
-        groups._remove_unused(parts)
+        groups.remove_group(tree)
         images.append(img)
     assert mask.sum() > 100 and np.all(np.isfinite(images[0]))
     assert images[0][mask].max() > 0.0

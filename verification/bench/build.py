@@ -42,12 +42,11 @@ def _seconds(api, model, params):
     node = api.add_model(mat, model, **params)
     seconds = time.perf_counter() - t0
     tree = node.node_tree
-    parts = groups._parts(tree)
+    n_parts = len(groups._parts(tree))
     count = int(tree["rm_native_nodes"])
     bpy.data.materials.remove(mat)
-    bpy.data.node_groups.remove(tree)
-    groups._remove_unused(parts)
-    return seconds, count, len(parts)
+    groups.remove_group(tree)
+    return seconds, count, n_parts
 
 
 def main(argv=None):

@@ -158,14 +158,17 @@ class Builder:
         self.count += len(nodes)
         return self._outputs(refs, made)
 
-    def _outputs(self, refs, made):
-        out = {}
-        for name, src in refs.items():
-            if src is None or src[0] == "const":
-                out[name] = src
-            else:
-                out[name] = self.source(src, made)
-        return out
+    def _outputs(self, refs, made, outside=None):
+        """Each output's socket in the tree (None and constants as they are)."""
+        return {name: src if src is None or src[0] == "const"
+                else self._outer(src, made, outside) for name, src in refs.items()}
+
+    def _outer(self, src, made, outside=None):
+        """The socket of ``src`` in the tree: for a link, the output of the
+        node's part where the plan is in parts (``outside``)."""
+        if src[0] == "link" and outside is not None:
+            return outside[(src[1], src[2])]
+        return self.source(src, made)
 
     def _in_parts(self, nodes, refs):
         """The plan in nested node groups of at most PART_SIZE nodes each,
@@ -213,8 +216,7 @@ class Builder:
                         continue
                     skey = tuple(src)
                     if skey not in inputs:
-                        outer = outside[(src[1], src[2])] if src[0] == "link" \
-                            else self.source(src, made)
+                        outer = self._outer(src, made, outside)
                         item = sub.interface.new_socket(_port_name(src), in_out="INPUT",
                                                         socket_type=_socket_type(outer))
                         inputs[skey] = (item.identifier, outer)
@@ -243,13 +245,7 @@ class Builder:
             for key, identifier in outputs:
                 outside[key] = _socket(group.outputs, identifier)
         self.count += len(nodes)
-        out = {}
-        for name, src in refs.items():
-            if src is not None and src[0] == "link":
-                out[name] = outside[(src[1], src[2])]
-            else:  # none, a constant, an input of the group or the geometry
-                out[name] = self._outputs({name: src}, made)[name]
-        return out
+        return self._outputs(refs, made, outside)
 
 
 PART_SIZE = 150  # nodes of a plan per nested group (:meth:`Builder._in_parts`)
