@@ -547,6 +547,9 @@ def test_directions_of_any_length_are_directions(model, params):
     (lambda w: R.shade("phong", w, w, exponent="20"), r"exponent='20' is not allowed"),
     (lambda w: R.shade("phong", w, w, exponent=True), r"exponent=True is not allowed"),
     (lambda w: R.shade("phong", w, w, ks=("1", "1", "1")), r"ks=.* is not allowed; ks must be"),
+    # RGBA, or an axis of greys: the colour's axis would be a guess (read as greys before)
+    (lambda w: R.shade("phong", w, w, ks=(1.0, 0.5, 0.25, 1.0)), r"ks has shape \(4,\); .*RGB"),
+    (lambda w: R.shade("lambert", w, w, albedo=np.full((5, 2), 0.5)), r"albedo has shape \(5, 2\)"),
     (lambda w: R.shade("microfacet", w, w, distribution="ggx"), "'trowbridge_reitz'"),
     (lambda w: R.shade("microfacet", w, w, beta=0.0), "beta must be"),
     (lambda w: R.shade("microfacet", w, w, beta=0.3, alpha=0.2), "one width"),
@@ -571,6 +574,20 @@ def test_bad_input_raises_value_error_naming_what_is_allowed(call, match):
     w = np.array([0.0, 0.0, 1.0])
     with pytest.raises(ValueError, match=match):
         call(w)
+
+
+def test_a_colour_is_grey_as_a_scalar_or_a_last_axis_of_one():
+    """A scalar colour and a last axis of length 1 are grey; an axis of
+    length 3 is RGB, per leading index (what the error above names)."""
+    wi = np.array([[0.3, 0.0, 1.0], [0.0, 0.5, 1.0]])
+    wo = np.array([0.0, 0.0, 1.0])
+    grey = R.shade("lambert", wi, wo, albedo=0.5)
+    per_row = R.shade("lambert", wi, wo, albedo=np.array([[0.5], [0.25]]))
+    np.testing.assert_array_equal(per_row[0], grey[0])
+    np.testing.assert_array_equal(per_row[1], grey[1] * 0.5)
+    rgb = R.shade("lambert", wi, wo, albedo=(0.5, 0.25, 0.125))
+    np.testing.assert_array_equal(rgb[:, 0], grey[:, 0])
+    np.testing.assert_array_equal(rgb[:, 2], grey[:, 2] / 4)
 
 
 def test_erfc_accuracy():

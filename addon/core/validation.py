@@ -37,8 +37,12 @@ def check_value(p, value):
                                             | (arr > (p.maximum if p.maximum is not None else np.inf))].ravel()[0]
         raise ValueError(f"{p.name}={float(bad)!r} is out of range; {p.name} must be {p.allowed()}")
     if p.kind == "color":
-        if arr.ndim == 0 or arr.shape[-1] != 3:
-            arr = arr[..., None]
+        if arr.ndim == 0:
+            arr = arr[None]  # grey
+        elif arr.shape[-1] not in (1, 3):  # RGBA, say: which axis is the colour's is unknown
+            raise ValueError(f"{p.name} has shape {arr.shape}; {p.name} must be a scalar (grey), "
+                             "an RGB triple, or an array whose last axis has length 3 (RGB) "
+                             "or 1 (grey)")
     return arr
 
 

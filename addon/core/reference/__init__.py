@@ -13,7 +13,8 @@ Directions point away from the surface (``wi`` toward the light, ``wo``
 toward the eye; ``normal``, ``tangent``), are scaled to unit length (a zero
 vector, or one with a NaN or infinite component, has no direction and gives
 0) and broadcast over leading axes, as do array-valued parameters.  Colours
-are RGB triples (a trailing axis of length 3); a scalar colour is grey.
+are RGB triples (a trailing axis of length 3); a scalar colour, or a trailing
+axis of length 1, is grey; any other shape (RGBA, say) raises ``ValueError``.
 Angles are radians.
 
 Also public: the microfacet distributions as types (:func:`distribution`,
