@@ -31,6 +31,7 @@ import pytest
 from addon import catalogue
 from addon.core import reference as R
 from verification import harness as common
+from verification.scenes import gonio
 from verification.suites import cases as cases_mod
 
 RES = 48
@@ -118,6 +119,43 @@ def test_eevee_exact_and_path_traced(verify, api, case):
     assert r["false_shadow_fraction"] <= 0.01 and r["passed"], r
     r = _run(verify, api, case, "path_traced", "eevee")
     assert r["finite"] and r["lit"]
+
+
+# EEVEE away from the defaults: seeded random parameters over each model's
+# whole range (its own seed), the cases whose values on the gonio EEVEE's
+# half-float output can hold to 3e-3 of their peak: a peak among half
+# float's normal numbers.  Under 2^-14 its step is 6e-8, over 3e-3 of such a
+# peak (Blinn-Phong unnormalised at exponent 1000: the gonio's pixels see
+# only its tail, 3.5e-7, rendered 3.0e-7; Beckmann with V-groove at beta
+# 2 deg: 7.4e-7, rendered 7.2e-7).
+HALF_MIN_NORMAL = 2.0 ** -14
+
+
+def _peak_in_half_float(case):
+    """The reference's largest value on the gonio (numpy only, as the test
+    renders it) is a normal half-float number."""
+    g = gonio.plan_gonio(light_dir=ONE_LIGHT[0], resolution=RES)
+    return float(g.reference(case.model, **case.params)[g.mask].max()) >= HALF_MIN_NORMAL
+
+
+RANDOM_EEVEE_DRAW = cases_mod.random_cases(n_microfacet=12, n_other=3, seed=2027)
+RANDOM_EEVEE_CASES = [c for c in RANDOM_EEVEE_DRAW if _peak_in_half_float(c)]
+
+
+def test_the_random_eevee_cases_keep_most_of_the_draw():
+    """The filter leaves most cases, and every model, to the test below."""
+    assert len(RANDOM_EEVEE_CASES) >= 0.75 * len(RANDOM_EEVEE_DRAW)
+    assert {c.model for c in RANDOM_EEVEE_CASES} == {c.model for c in RANDOM_EEVEE_DRAW}
+
+
+@pytest.mark.parametrize("case", RANDOM_EEVEE_CASES, ids=lambda c: c.id)
+def test_eevee_exact_mode_at_random_parameters(verify, api, case):
+    """Every model family and variant kind at random parameters in EEVEE's
+    exact mode: 3e-3 of the peak (half-float output) on the pixels its
+    screen-space shadow ray does not blacken (at most 1 %)."""
+    r = _run(verify, api, case, "exact", "eevee")
+    assert r["max_abs_over_peak"] <= r["tolerance"], r
+    assert r["false_shadow_fraction"] <= 0.01 and r["passed"], r
 
 
 BLACK_CASES = [

@@ -162,54 +162,7 @@ def test_exact_mode_holds_for_the_narrowest_beta(verify, api, distribution, back
     assert c.values["max_rel_error"] <= cases_mod.EXACT_MODE_TOLERANCE  # float32 against float64
 
 
-def _random_cases(n_microfacet=14, n_other=3, seed=2026):
-    """Seeded random parameters over each model's whole range, its ends
-    included (every distribution, shadowing, Fresnel and width mode of the
-    microfacet model), except where float32 directions alone exceed the
-    tolerance (widths below 0.03 in alpha; docs/verification.md, narrow
-    lobes) or the gonio's pixels see only a tail below float32's smallest
-    numbers (exponents over 1000, beta under 2 deg)."""
-    import random
-    rng = random.Random(seed)
-    out = []
-    for model_id, model in catalogue.MODELS.items():
-        for i in range(n_microfacet if model_id == "microfacet" else n_other):
-            p = {q.name: rng.choice(q.choices) for q in model.params if q.is_enum}
-            if p.get("shadowing") == "smith_1967":
-                p["distribution"] = "beckmann"
-            for q in model.params:
-                if q.is_enum or q.name in ("beta", "alpha", "alpha_x", "alpha_y", "exponent"):
-                    continue
-                hi = q.soft_max if q.soft_max is not None else q.maximum
-                r = rng.random()
-                x = q.minimum if r < 0.15 else hi if r < 0.3 else rng.uniform(q.minimum, hi)
-                if q.kind == "color":
-                    x = max(x, 0.05) if q.name in ("ks", "kd", "albedo") else x
-                    x = tuple(min(max(x * f, q.minimum), q.maximum)
-                              for f in (1.0, rng.uniform(0.3, 1.0), rng.uniform(0.3, 1.0)))
-                p[q.name] = x
-            if "exponent" in model.param_names:
-                p["exponent"] = rng.choice([0.0, rng.uniform(0.0, 50.0), rng.uniform(50.0, 1000.0),
-                                            1000.0])
-            if model_id == "ward":
-                p["alpha_x"], p["alpha_y"] = rng.uniform(0.03, 1.0), rng.uniform(0.03, 1.0)
-            if model_id == "microfacet":
-                widths = ["beta"] if p["distribution"] in ("blinn", "gaussian") else \
-                    ["beta", "alpha", "alpha_xy"]
-                w = rng.choice(widths)
-                if w == "beta":
-                    p["beta"] = rng.choice([2.0, rng.uniform(2.0, 20.0), rng.uniform(20.0, 85.0),
-                                            85.0]) * math.pi / 180.0
-                elif w == "alpha":
-                    p["alpha"] = rng.choice([0.03, rng.uniform(0.03, 1.0), rng.uniform(1.0, 4.0),
-                                             4.0])
-                else:
-                    p["alpha_x"], p["alpha_y"] = rng.uniform(0.03, 1.0), rng.uniform(0.03, 1.0)
-            out.append(cases_mod.Case(model_id, p, f"random {i}"))
-    return out
-
-
-RANDOM_CASES = _random_cases()
+RANDOM_CASES = cases_mod.random_cases()
 
 
 @pytest.mark.parametrize("backend", ["osl", "svm"])
