@@ -15,7 +15,7 @@
 - **Hybrid in a lit scene**: Trowbridge-Reitz with correlated Smith (whose
   closure is exact) under a bound sun, an unbound sun, a sky and a floor,
   with bounces: the hybrid render equals the fully path-traced one within
-  Monte Carlo noise (see the test for the bound).
+  Monte Carlo noise (see the test for the bound), with OSL and without.
 - **Light linking bookkeeping**: objects that get the material later are
   excluded on render and on save; unbinding removes exactly what binding
   added, not what a user linked by hand; the file renders the same without
@@ -127,11 +127,13 @@ def test_hybrid_renders_a_bound_lamp_exactly(api, model, backend):
     assert c.passed, c.measured
 
 
-def test_hybrid_equals_path_traced_in_a_lit_scene(api):
+@pytest.mark.parametrize("osl", [True, False], ids=["osl", "native"])
+def test_hybrid_equals_path_traced_in_a_lit_scene(api, osl):
     """Per tile, the means of the hybrid and the fully path-traced renders
     differ by at most 4 standard errors (plus 1e-4, float32); see
-    verification/suites/lighting.py for why that bound."""
-    c = lighting.hybrid_lit_scene(api, samples=64, resolution=RES)
+    verification/suites/lighting.py for why that bound.  With OSL and on
+    the native nodes (Cycles with OSL off: the GPU devices' kernel code)."""
+    c = lighting.hybrid_lit_scene(api, samples=64, resolution=RES, osl=osl)
     print(f"\n{c.name}: {c.measured}")
     assert c.values["finite"] and c.values["tiles"] >= 10 and c.values["mean"] > 0
     assert not c.values["unbound_linked"]

@@ -171,7 +171,8 @@ def run(args):
             lamp_checks.append(lighting.hybrid_bound_lamp(api, model, osl=osl))
         # EEVEE honours the light linking too: the bound sun reaches the Direct output only
         lamp_checks.append(lighting.hybrid_bound_lamp(api, model, osl=False, eevee=True))
-    lamp_checks.append(lighting.hybrid_lit_scene(api, samples=128, resolution=64))
+    for osl in (True, False):
+        lamp_checks.append(lighting.hybrid_lit_scene(api, samples=128, resolution=64, osl=osl))
     for c in lamp_checks:
         log(f"  {c.verdict:8s} {c.name}: {c.measured}")
 

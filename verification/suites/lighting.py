@@ -147,17 +147,17 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False)
                  values=values, seconds=time.perf_counter() - t0)
 
 
-def _lit_scene(api, mode, samples, resolution):
+def _lit_scene(api, mode, samples, resolution, osl=True):
     """Tiles (TR + correlated Smith) over a white floor, a bound sun, an
-    unbound sun, a sky of strength 0.5, 4 bounces."""
+    unbound sun, a sky of strength 0.5, 4 bounces; OSL on or off."""
     bpy = common.import_bpy()
     name = f"rm_hybrid_scene_{mode}"
     mat = _material(name)
     node = api.add_model(mat, "microfacet", mode=mode, **TR)
     g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.90), resolution=resolution,
-                                osl=True, name=name)
+                                osl=osl, name=name)
     scene = g.scene
-    common.configure_cycles(scene, samples=samples, max_bounces=4, osl=True, seed=7)
+    common.configure_cycles(scene, samples=samples, max_bounces=4, osl=osl, seed=7)
     common.set_world_background(scene, 0.5, (0.6, 0.75, 1.0))
     other = lit.add_lamp(scene, lit.Lamp("SUN", direction=(-0.5, 0.3, 0.81), strength=0.7,
                                          color=(1.0, 0.85, 0.7)), name + "_sun2")
@@ -176,7 +176,7 @@ def _lit_scene(api, mode, samples, resolution):
     return g, node, (mat, floor_mat), unbound_linked
 
 
-def hybrid_lit_scene(api, *, samples=64, resolution=48):
+def hybrid_lit_scene(api, *, samples=64, resolution=48, osl=True):
     """The Monte Carlo bound: per tile, the means of the two renders differ
     by at most 4 standard errors (from the spread of each tile's pixels,
     which also holds the tile's small geometric variation: an overestimate
@@ -185,7 +185,7 @@ def hybrid_lit_scene(api, *, samples=64, resolution=48):
     bpy = common.import_bpy()
     images = {}
     for mode in ("hybrid", "path_traced"):
-        g, node, mats, unbound_linked = _lit_scene(api, mode, samples, resolution)
+        g, node, mats, unbound_linked = _lit_scene(api, mode, samples, resolution, osl)
         try:
             images[mode] = g.render().astype(np.float64)
         finally:
@@ -207,8 +207,10 @@ def hybrid_lit_scene(api, *, samples=64, resolution=48):
         bound = 4.0 * se + 1e-4 * np.abs(mp)
         worst = max(worst, float(np.max(np.abs(mh - mp) / np.maximum(bound, 1e-12))))
     values = {"worst_over_bound": worst, "tiles": tiles, "samples": samples, "finite": finite,
-              "unbound_linked": unbound_linked, "mean": float(h[g.inside].mean())}
-    return Check(name="hybrid vs fully path traced, TR + correlated Smith, lit scene",
+              "unbound_linked": unbound_linked, "mean": float(h[g.inside].mean()),
+              "backend": "osl" if osl else "native"}
+    return Check(name="hybrid vs fully path traced, TR + correlated Smith, lit scene"
+                      + ("" if osl else ", native"),
                  passed=finite and worst <= 1.0 and not unbound_linked,
                  measured=f"largest tile difference {worst:.2f} of its bound ({tiles} tiles, "
                  f"{samples} spp)",
