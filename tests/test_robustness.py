@@ -721,6 +721,21 @@ def _is_infinite(value):
     return any(isinstance(x, float) and math.isinf(x) for x in values)
 
 
+def _probe_renders(bench, mat, x):
+    """``mat`` on every tile of the EEVEE bench, the vector attribute
+    attr_name("x") set to ``x`` (a row per tile): its EEVEE and Cycles
+    renders; the material is removed after."""
+    bench.set_materials([mat], [0] * bench.tiles)
+    bench._attribute(attr_name("x"), "VECTOR", x)
+    bench.mesh.update()
+    with _eevee(bench.g.scene):
+        eevee = bench.render()
+    cycles = bench.render()
+    bench.mesh.materials.clear()
+    bench.bpy.data.materials.remove(mat)
+    return eevee, cycles
+
+
 def test_what_eevee_makes_of_an_infinite_face_attribute(eevee_bench):
     """Why the EEVEE test below makes its infinities in the shader
     (inf_by_product: an attribute of 2^120 times 2^16): in EEVEE an infinite
@@ -752,17 +767,10 @@ def test_what_eevee_makes_of_an_infinite_face_attribute(eevee_bench):
     emit = tree.nodes.new("ShaderNodeEmission")
     tree.links.new(probes.outputs[0], emit.inputs["Color"])
     tree.links.new(emit.outputs[0], out.inputs["Surface"])
-    bench.set_materials([mat], [0] * bench.tiles)
     values = [INF, -INF, 0.5, INF_STORED, -INF_STORED]
     x = np.zeros((bench.tiles, 3))
     x[:, 0] = [values[k // bench.columns % len(values)] for k in range(bench.tiles)]
-    bench._attribute(attr_name("x"), "VECTOR", x)
-    bench.mesh.update()
-    with _eevee(bench.g.scene):
-        eevee = bench.render()
-    cycles = bench.render()
-    bench.mesh.materials.clear()
-    bpy.data.materials.remove(mat)
+    eevee, cycles = _probe_renders(bench, mat, x)
     expect = [(1.0, 0.0, 1.0), (0.0, 1.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 1.0),
               (0.0, 1.0, 1.0)]
     for engine, img in (("eevee", eevee), ("cycles", cycles)):
@@ -799,14 +807,7 @@ def test_eevee_s_shading_normal_is_off_the_face_s_by_more_than_the_frame_allows(
     emit = tree.nodes.new("ShaderNodeEmission")
     tree.links.new(scaled.outputs[0], emit.inputs["Color"])
     tree.links.new(emit.outputs[0], out.inputs["Surface"])
-    bench.set_materials([mat], [0] * bench.tiles)
-    bench._attribute(attr_name("x"), "VECTOR", np.array(bench.normals, np.float32))
-    bench.mesh.update()
-    with _eevee(bench.g.scene):
-        eevee = bench.render()
-    cycles = bench.render()
-    bench.mesh.materials.clear()
-    bpy.data.materials.remove(mat)
+    eevee, cycles = _probe_renders(bench, mat, np.array(bench.normals))
     seen = bench.g.tile_index >= 0
     off = {engine: img[..., 0][seen] / 2.0 ** 16 for engine, img in (("eevee", eevee),
                                                                      ("cycles", cycles))}
