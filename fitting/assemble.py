@@ -534,7 +534,8 @@ def _edge_pass(fit: M.Fit, log) -> M.Fit:
     the fit its kept windows left, or ``fit`` itself where none was kept."""
     from . import bounds
     aim = bound(fit.target)
-    before = bounds.intervals(fit)
+    picked = {}  # each interval's worst Fresnel indices, for ``current``
+    before = bounds.intervals(fit, picked=picked)
     over = [j for j, e in enumerate(before["none"]) if e is not None and e > aim]
     n = len(fit.width_values)
     now, current = {cls: list(v) for cls, v in before.items()}, fit
@@ -549,10 +550,11 @@ def _edge_pass(fit: M.Fit, log) -> M.Fit:
         reach = set(range(max(0, min(free) - 1), min(n - 1, max(free) + 1)))
         solved = joint.solve(current, free=free, log=log, views=bounds.VIEWS_DEG,
                              edge=bounds.edge_lights(offset=0.5), bound=aim,
-                             fresnel=bounds.worst_settings(current, reach))
+                             fresnel=bounds.worst_settings(current, reach, picked))
         if solved is None:
             continue
-        after = bounds.intervals(solved, only=reach)
+        picked_after = {}
+        after = bounds.intervals(solved, only=reach, picked=picked_after)
         rose = [(cls, k, round(before[cls][k], 5), round(after[cls][k], 5))
                 for cls in bounds.CLASSES for k in sorted(reach)
                 if before[cls][k] is not None
@@ -567,6 +569,7 @@ def _edge_pass(fit: M.Fit, log) -> M.Fit:
         if new < old and not rose and not unseen and _no_worse_beyond(solved, fit):
             log(f"  {fit.target.key}: {said}")
             current = solved
+            picked.update(picked_after)
             for cls in bounds.CLASSES:
                 for k in reach:
                     now[cls][k] = after[cls][k]

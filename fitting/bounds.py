@@ -146,39 +146,47 @@ def class_error(rows, cls, diffuse_exact=False):
     return max(setting_errors(rows, cls, diffuse_exact))
 
 
-def worst_settings(fit, only):
+def worst_settings(fit, only, picked=None):
     """For each Fresnel class, F for the index of its grid that errs most
     at some point of the intervals ``only`` (as :func:`intervals` measures
     them), each index once: the ones :func:`.assemble.finish_edge` holds
-    in its programme."""
-    nodes, soft = fit.width_values, fit.target.soft_max
-    picked = set()
-    for j in sorted(only):
-        a, b = float(nodes[j]), min(float(nodes[j + 1]), soft)
-        if a >= soft - 1e-12:
-            continue
-        for i in range(POINTS + 1):
-            rows = rows_at(fit, a + (b - a) * i / POINTS)
-            for cls in CLASSES[1:]:
-                errors = setting_errors(rows, cls)
-                picked.add((cls, int(np.argmax(errors))))
-    return [fresnel_settings(cls)[i] for cls, i in sorted(picked)]
+    in its programme.  ``picked``: those indices as :func:`intervals`
+    recorded them for ``fit`` (its ``picked``), instead of measuring the
+    intervals again."""
+    if picked is None:
+        picked = {}
+        intervals(fit, only=only, picked=picked)
+    chosen = set().union(*(picked.get(j, set()) for j in only))
+    return [fresnel_settings(cls)[i] for cls, i in sorted(chosen)]
+
+
+def _point_indices(fit, value):
+    """At one width, for each class: the largest error over the peak and
+    the index of the class's grid that makes it."""
+    rows = rows_at(fit, value)
+    out = {}
+    for cls in CLASSES:
+        errors = setting_errors(rows, cls)
+        out[cls] = (max(errors), int(np.argmax(errors)))
+    return out
 
 
 def _point(fit, value):
     """At one width: for each class, the largest error over the peak (the
     worst index of the class's grid)."""
-    rows = rows_at(fit, value)
-    return {cls: class_error(rows, cls) for cls in CLASSES}
+    return {cls: e for cls, (e, _i) in _point_indices(fit, value).items()}
 
 
-def intervals(fit, only=None):
+def intervals(fit, only=None, picked=None):
     """Per class, the bound of each interval between the fit's width nodes
     (the largest of its nine points); up to the closures' range
     (``target.soft_max``, alpha 1: wider is approx anyway): the interval
     that straddles it is measured up to it, those beyond are left out
     (None).  ``only``: the intervals to measure, the others None too
-    (:func:`.assemble.finish_edge` measures those a window's nodes reach)."""
+    (:func:`.assemble.finish_edge` measures those a window's nodes reach).
+    ``picked``: a dict that gets, for each interval measured, the set of
+    ``(class, index)`` of the Fresnel classes' worst grid indices at its
+    points (:func:`worst_settings`)."""
     nodes = fit.width_values
     soft = fit.target.soft_max
     points = {}
@@ -190,15 +198,19 @@ def intervals(fit, only=None):
                 out[cls].append(None)
             continue
         worst = dict.fromkeys(CLASSES, 0.0)
+        indices = set()
         for i in range(POINTS + 1):
             x = a + (b - a) * i / POINTS
             key = round(x, 12)
             if key not in points:
-                points[key] = _point(fit, x)
+                points[key] = _point_indices(fit, x)
             for cls in CLASSES:
-                worst[cls] = max(worst[cls], points[key][cls])
+                worst[cls] = max(worst[cls], points[key][cls][0])
+            indices.update((cls, points[key][cls][1]) for cls in CLASSES[1:])
         for cls in CLASSES:
             out[cls].append(worst[cls])
+        if picked is not None:
+            picked[j] = indices
     return out
 
 

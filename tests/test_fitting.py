@@ -1484,6 +1484,24 @@ def test_the_bounds_measure_only_the_intervals_asked_for():
         assert [v for j, v in enumerate(got[cls]) if j != 9] == [None] * (len(got[cls]) - 1)
 
 
+def test_the_fresnel_indices_recorded_by_the_bounds_are_those_measured_again():
+    """fitting/assemble.finish_edge holds each window to the Fresnel indices
+    that err most in its reach as fitting/bounds.intervals recorded them
+    (``picked``), where it measured them again before: the same indices."""
+    from fitting import bounds as B
+    key = "microfacet/gaussian/smith/beta"
+    fit = M.load_fits([key])[key]
+    picked = {}
+    B.intervals(fit, only={9}, picked=picked)
+    assert set(picked) == {9} and all(picked.values())
+    again = B.worst_settings(fit, {9})
+    recorded = B.worst_settings(fit, {9}, picked)
+    c = np.linspace(0.0, 1.0, 11)
+    assert len(again) == len(recorded) >= 2
+    for f, g in zip(again, recorded):
+        assert np.array_equal(f(c), g(c))
+
+
 def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(monkeypatch):
     """fitting/assemble.finish_edge: the intervals over the bound one at a
     time, the nearest first, each from what the ones before left; an
@@ -1529,14 +1547,17 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
         out.window = window
         return out
 
-    def intervals(f, only=None):
+    def intervals(f, only=None, picked=None):
+        if picked is not None:  # stand-in indices: the fit they were measured on
+            picked.update({k: {("fit", getattr(f, "window", None))}
+                           for k in (range(5) if only is None else only)})
         if only is None and getattr(f, "window", None) is None:
             return {cls: list(before[cls]) for cls in bounds.CLASSES}
         got = afters.get(f.window, afters[1])
         return {cls: list(got.get(cls, got["none"])) for cls in bounds.CLASSES}
 
-    def worst_settings(f, only):  # a stand-in for the Fresnel indices held
-        return [(getattr(f, "window", None), sorted(only))]
+    def worst_settings(f, only, picked):  # the Fresnel indices held, as recorded
+        return [(sorted({w for k in only for _c, w in picked[k]}, key=str), sorted(only))]
 
     def run():
         frees.clear()
@@ -1560,7 +1581,8 @@ def test_the_edge_step_solves_one_interval_at_a_time_nearest_the_bound_first(mon
     assert starts[0] is fit and starts[1].window == 1
     # the error held under the Fresnel indices of the window's start, at the
     # intervals its nodes reach, and to the variant's bound
-    assert held == [(0.025, [(None, [0, 1, 2, 3, 4])]), (0.025, [(1, [1, 2, 3, 4])])]
+    # (the indices recorded for the fit each window starts from)
+    assert held == [(0.025, [([None], [0, 1, 2, 3, 4])]), (0.025, [([1], [1, 2, 3, 4])])]
     assert out.window == 2 and how == f"fitted, {assemble.EDGE}"
     # the same second window with a dielectric interval gone over the bound
     # (up by less than WIDTH_SLACK): not used
