@@ -230,8 +230,11 @@ def faces(model_id: str) -> dict:
     v_file = ROOT / "addon" / "core" / "variants.py"
     out["node_group"] = (_rel(v_file), _line_of(v_file, r"^def group_name\("),
                          f"node group `{variants.group_name(model_id)}` and its variants")
+    # the files that name the model, and those that run the verification
+    # cases, which cover every model (tests/test_verification.py checks so)
     tests = sorted(p for p in (ROOT / "tests").glob("test_*.py")
-                   if f'"{model_id}"' in p.read_text(encoding="utf-8"))
+                   if any(s in p.read_text(encoding="utf-8")
+                          for s in (f'"{model_id}"', "cases_mod.CASES")))
     if not tests:
         raise LookupError(f"{model_id}: no test names it")
     out["tests"] = [(_rel(p), 1, p.stem) for p in tests]
