@@ -6,7 +6,7 @@ model| over the peak (views and lights up to 70 deg), without Fresnel
 ('dielectric', 'conductor'); None beyond the closures' range.  See
 fitting/bounds.py."""
 
-FITTER = 'ad53f49694b4135a'
+FITTER = '98aa2c74420eac0d'
 DIELECTRIC_RANGE = (1.0, 10.0)
 CONDUCTOR_K_MIN = 1.5
 VIEW_STEP_DEG = 1.25  # the views measured: every this, to 70 deg
