@@ -28,6 +28,7 @@ import time
 
 import numpy as np
 
+from . import verify
 from .. import harness as common
 from ..harness.checks import Check, TOLERANCES, tolerance
 from ..scenes import gonio, lit
@@ -54,6 +55,26 @@ def compare(img, expected, mask, spread=None, *, eevee=False):
     return float((err / scale).max()), float((err / allowed).max())
 
 
+def _backend(osl, eevee):
+    """The backend's name in these checks: "osl", "native" or "eevee"."""
+    return "eevee" if eevee else "osl" if osl else "native"
+
+
+def _use_backend(scene, api, backend):
+    """Set ``scene`` up for ``backend`` (:func:`.verify.use_backend`, which
+    calls the native nodes in Cycles "svm")."""
+    verify.use_backend(scene, {"native": "svm"}.get(backend, backend), api)
+
+
+def _measure(eevee):
+    """How :func:`compare` measured: ``(values key, label, the bound's
+    text, tolerance reason)``."""
+    if eevee:
+        return ("max_abs_over_peak", "|d|/peak", "<= 3e-3 of the peak",
+                TOLERANCES["eevee_exact"].reason)
+    return "max_rel_error", "rel error", "<= 1e-4 relative", TOLERANCES["exact_mode"].reason
+
+
 def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resolution=48,
                   eevee=False):
     """``eevee``: rendered by EEVEE (native nodes, ``osl`` ignored) and held
@@ -62,14 +83,12 @@ def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resol
     t0 = time.perf_counter()
     bpy = common.import_bpy()
     lamp_set = LAMP_SETS[lamps]
-    backend = "eevee" if eevee else "osl" if osl else "native"
+    backend = _backend(osl, eevee)
     name = f"lit_{lamps}_{model}_{backend}"
     mat = _material(name)
     node = api.add_model(mat, model, mode="exact", **params)
     s = lit.build_lit_scene(mat, lamp_set, resolution=resolution, name=name)
-    s.scene.cycles.shading_system = osl and not eevee
-    if eevee:
-        common.configure_eevee(s.scene, samples=1)
+    _use_backend(s.scene, api, backend)
     try:
         api.bind_light(node, *s.lamp_objects)
         bound = [o.name for o in api.bound_lights(node)]
@@ -83,21 +102,18 @@ def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resol
     worst, ratio = compare(img, expected, s.mask, spread, eevee=eevee)
     cones = [lit.spot_cone(w[s.mask] @ lit.normalize(l.direction), l.size, l.blend)
              for w, l in zip(s.wi, s.lamps) if l.kind == "SPOT"]
-    values = {"model": model, "lamps": lamps, "backend": backend,
-              ("max_abs_over_peak" if eevee else "max_rel_error"): worst,
+    key, label, within, reason = _measure(eevee)
+    values = {"model": model, "lamps": lamps, "backend": backend, key: worst,
               "allowance_used": ratio, "n_pixels": int(s.mask.sum()),
               "bound": bound, "lights": lights, "lamp_names": [o for o in bound],
               "cone_edge_pixels": int(sum(np.sum((c > 0.01) & (c < 0.99)) for c in cones)),
               "outside_cone_pixels": int(sum(np.sum(c == 0.0) for c in cones))}
     return Check(name=f"{model} exact, {len(lamp_set)} lamps ({lamps}), "
                       f"{values['backend']}",
-                 passed=ratio <= 1.0, measured=f"max {'|d|/peak' if eevee else 'rel error'} "
-                 f"{worst:.2e} ({ratio:.2f} of the allowance)",
-                 expected=("<= 3e-3 of the peak" if eevee else "<= 1e-4 relative")
-                 + " + the change across the pixel filter",
-                 group="lamps",
-                 tolerance=TOLERANCES["eevee_exact" if eevee else "exact_mode"].reason,
-                 values=values, seconds=time.perf_counter() - t0)
+                 passed=ratio <= 1.0,
+                 measured=f"max {label} {worst:.2e} ({ratio:.2f} of the allowance)",
+                 expected=within + " + the change across the pixel filter", group="lamps",
+                 tolerance=reason, values=values, seconds=time.perf_counter() - t0)
 
 
 def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False):
@@ -110,15 +126,13 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False)
     t0 = time.perf_counter()
     bpy = common.import_bpy()
     light = gonio.normalize((0.35, 0.25, 0.90))
-    backend = "eevee" if eevee else "osl" if osl else "native"
+    backend = _backend(osl, eevee)
     name = f"hybrid_{model}_{backend}"
     mat = _material(name)
     node = api.add_model(mat, model, mode="hybrid")
     g = gonio.build_gonio_scene(mat, light_dir=light, resolution=resolution,
-                                osl=osl and not eevee, name=name)
-    g.scene.cycles.shading_system = osl and not eevee
-    if eevee:
-        common.configure_eevee(g.scene, samples=1)
+                                osl=backend == "osl", name=name)
+    _use_backend(g.scene, api, backend)
     g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
     try:
         api.bind_light(node, g.sun)
@@ -133,18 +147,15 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False)
         bpy.data.materials.remove(mat)
     expected = g.reference(model)
     worst, ratio = compare(img, expected, g.mask, eevee=eevee)
-    values = {"model": model, "backend": backend,
-              ("max_abs_over_peak" if eevee else "max_rel_error"): worst,
-              "excluded": excluded, "n_lit": int(g.lit.sum()),
+    key, label, within, reason = _measure(eevee)
+    values = {"model": model, "backend": backend, key: worst, "excluded": excluded, "n_lit": int(g.lit.sum()),
               "peak": float(expected[g.lit].max()) if g.lit.any() else 0.0}
     return Check(name=f"{model} hybrid under its bound sun, {backend}",
                  passed=ratio <= 1.0 and excluded,
-                 measured=f"max {'|d|/peak' if eevee else 'rel error'} {worst:.2e}",
-                 expected=("<= 3e-3 of the peak" if eevee else "<= 1e-4")
-                 + ": the bound lamp exactly, no closure response to it",
-                 group="hybrid",
-                 tolerance=TOLERANCES["eevee_exact" if eevee else "exact_mode"].reason,
-                 values=values, seconds=time.perf_counter() - t0)
+                 measured=f"max {label} {worst:.2e}",
+                 expected=within + ": the bound lamp exactly, no closure response to it",
+                 group="hybrid", tolerance=reason, values=values,
+                 seconds=time.perf_counter() - t0)
 
 
 def _lit_scene(api, mode, samples, resolution, osl=True):
