@@ -94,15 +94,14 @@ class SampleCache:
         self.cache = {}
 
     def __call__(self, value, deg):
-        key = (round(float(value), 12), deg)
-        if key not in self.cache:
-            self.cache[key] = M.samples(self.target, float(value), math.cos(deg * M.DEG))
-        return self.cache[key]
+        return self._kept((round(float(value), 12), deg), value, math.cos(deg * M.DEG))
 
     def at_cos(self, value, cos_o):
         """The samples at the view whose cosine is ``cos_o`` (the view nodes
         are cosines: made from it as given, not from an angle)."""
-        key = (round(float(value), 12), "cos", float(cos_o))
+        return self._kept((round(float(value), 12), "cos", float(cos_o)), value, cos_o)
+
+    def _kept(self, key, value, cos_o):
         if key not in self.cache:
             self.cache[key] = M.samples(self.target, float(value), float(cos_o))
         return self.cache[key]
