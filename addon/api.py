@@ -173,7 +173,7 @@ def add_model(material, model: str, mode: str = "path_traced", *, backend: str =
         node.label = catalogue.PRESETS[model].label
     node.location = (output.location.x - 300.0, output.location.y)
     _set_sockets(node, socket_values)
-    _wire(node, mode, material)
+    _wire(node, mode, [material])
     for other in ntree.nodes:
         other.select = other == node
     ntree.nodes.active = node
@@ -207,22 +207,64 @@ def _check_mode(mode):
                          + ", ".join(repr(m) for m in MODES))
 
 
-def _material_of(node):
-    tree = node.id_data
-    for mat in bpy.data.materials:
-        if mat.node_tree == tree:
-            return mat
-    return None
+def _holds(tree, target, seen) -> bool:
+    """Whether ``tree`` is ``target`` or holds it through groups of the
+    user's (not through RM groups)."""
+    if tree == target:
+        return True
+    if tree is None or tree.as_pointer() in seen:
+        return False
+    seen.add(tree.as_pointer())
+    return any(n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
+               and groups.rm_info(n.node_tree) is None and _holds(n.node_tree, target, seen)
+               for n in tree.nodes)
+
+
+def _materials_of(node) -> list:
+    """The materials whose tree holds ``node``, directly or inside groups
+    of the user's."""
+    return [mat for mat in bpy.data.materials
+            if mat.node_tree is not None and _holds(mat.node_tree, node.id_data, set())]
 
 
 HYBRID_TAG = "rm_hybrid_of"
 
 
-def _wire(node, mode, material):
-    """Connect ``node``'s output for ``mode`` to the Material Output's
-    Surface (hybrid: an Add Shader of BSDF and Direct, tagged as ours)."""
+def _group_targets(node) -> list:
+    """In a group of the user's, the inputs the node's current mode feeds
+    (its BSDF or Direct output, or the hybrid Add Shader); failing those,
+    the group's first free Shader output.  Raises ``ValueError`` when there
+    is neither."""
     ntree = node.id_data
-    output = _material_output(ntree)
+    sources = [other.outputs[0] for other in ntree.nodes if other.get(HYBRID_TAG) == node.name]
+    current = MODES[lighting.node_mode(node)]
+    if isinstance(current, str):
+        sources.append(groups.output_socket(node, current))
+    targets = [link.to_socket for link in ntree.links
+               if any(link.from_socket == s for s in sources)
+               and link.to_node.get(HYBRID_TAG) != node.name]
+    if not targets:
+        for out in ntree.nodes:
+            if out.bl_idname == "NodeGroupOutput" and out.is_active_output:
+                targets = [s for s in out.inputs if s.type == 'SHADER' and not s.is_linked][:1]
+    if not targets:
+        raise ValueError(f"{node.name!r} is inside node group {ntree.name!r}, where its "
+                         "output goes nowhere and the group has no free Shader output: "
+                         "link its BSDF or Direct output first")
+    return targets
+
+
+def _wire(node, mode, materials):
+    """Connect ``node``'s output for ``mode`` to the Material Output's
+    Surface (hybrid: an Add Shader of BSDF and Direct, tagged as ours); in
+    a group of the user's, to what its current mode's output fed (see
+    :func:`_group_targets`).  ``materials``: those whose emission sampling
+    exact and hybrid mode turn off."""
+    ntree = node.id_data
+    if getattr(ntree, "is_embedded_data", False):
+        targets = [_material_output(ntree).inputs["Surface"]]
+    else:
+        targets = _group_targets(node)
     for other in list(ntree.nodes):
         if other.get(HYBRID_TAG) == node.name:
             ntree.nodes.remove(other)
@@ -233,23 +275,31 @@ def _wire(node, mode, material):
         add.location = (node.location.x + 200.0, node.location.y + 150.0)
         ntree.links.new(groups.output_socket(node, "BSDF"), add.inputs[0])
         ntree.links.new(groups.output_socket(node, "Direct"), add.inputs[1])
-        ntree.links.new(add.outputs[0], output.inputs["Surface"])
+        source = add.outputs[0]
     else:
-        ntree.links.new(groups.output_socket(node, MODES[mode]), output.inputs["Surface"])
+        source = groups.output_socket(node, MODES[mode])
+    for target in targets:
+        ntree.links.new(source, target)
     node["rm_mode"] = mode
-    if mode != "path_traced" and material is not None:
-        material.cycles.emission_sampling = 'NONE'
+    if mode != "path_traced":
+        for material in materials:
+            material.cycles.emission_sampling = 'NONE'
 
 
 def set_mode(node, mode: str):
     """Switch RM group ``node`` to ``mode`` (``"path_traced"``, ``"exact"``
     or ``"hybrid"``): rewire the Material Output and bring the light linking
     up to date (in hybrid mode every object using the material is excluded
-    from the lamps the node is bound to, so that nothing counts twice).
-    Returns the node."""
+    from the lamps the node is bound to, so that nothing counts twice; an
+    object counts as using it through a slot or through the geometry its
+    Geometry Nodes make).  A node inside a node group of the user's feeds
+    what its output fed before (or the group's first free Shader output);
+    every material using the group counts.  Returns the node; raises
+    ``ValueError`` for an unknown mode, or for a node in a group where its
+    output goes nowhere and the group has no free Shader output."""
     _rm_node_info(node)
     _check_mode(mode)
-    _wire(node, mode, _material_of(node))
+    _wire(node, mode, _materials_of(node))
     lighting.sync_light_linking()
     return node
 

@@ -14,7 +14,14 @@ Hybrid mode: the material renders the bound lamps exactly (the Direct
 output) and everything else with the path-traced BSDF.  So that no lamp
 counts twice, every object using the material is excluded from the bound
 lamps' light by light linking (the lamp's ``light_linking.receiver_collection``,
-link state EXCLUDE).  What the extension adds is recorded on the collection
+link state EXCLUDE).  A hybrid node counts in the material's tree and inside
+the user's groups there; an object uses the material through a slot or
+through the geometry its Geometry Nodes modifiers make (a Set Material
+node), and an instancer (a collection instance, particles, Geometry Nodes
+instances) uses the materials of what it instances: Cycles applies an
+instancer's light linking to its instances.  These are read from the
+evaluated depsgraphs of the scenes' view layers.
+What the extension adds is recorded on the collection
 (``rm_added``; ``rm_made`` when it made the collection), so that
 :func:`sync_light_linking` adds objects that got the material later, drops
 those that lost it, and unbinding removes exactly what binding added and
@@ -258,33 +265,166 @@ def _wired_mode(node):
     return "path_traced"
 
 
-def hybrid_nodes():
-    """``(material, node)`` of every RM node in hybrid mode."""
-    for mat in bpy.data.materials:
-        tree = mat.node_tree
-        if tree is None:
+def _hybrid_in(tree, seen):
+    """The RM nodes in hybrid mode in ``tree`` and in the groups of the
+    user's inside it, at any depth (not inside RM groups)."""
+    if tree is None or tree.as_pointer() in seen:
+        return
+    seen.add(tree.as_pointer())
+    for node in tree.nodes:
+        if node.bl_idname != "ShaderNodeGroup" or node.node_tree is None:
             continue
-        for node in tree.nodes:
-            if node.bl_idname == "ShaderNodeGroup" and node.get("rm_mode") == HYBRID \
-                    and groups.rm_info(node.node_tree) is not None:
-                yield mat, node
+        if groups.rm_info(node.node_tree) is not None:
+            if node.get("rm_mode") == HYBRID:
+                yield node
+        else:
+            yield from _hybrid_in(node.node_tree, seen)
 
 
-def _users(material):
-    """Objects with ``material`` in a slot."""
-    return [obj for obj in bpy.data.objects
-            if any(slot.material == material for slot in getattr(obj, "material_slots", ()))]
+def hybrid_nodes():
+    """``(material, node)`` of every RM node in hybrid mode, in the
+    material's tree or in a group of the user's there (a group used by
+    several materials gives its nodes once per material)."""
+    for mat in bpy.data.materials:
+        for node in _hybrid_in(mat.node_tree, set()):
+            yield mat, node
 
 
-def _exclusions() -> dict:
-    """lamp object -> the objects hybrid mode must exclude from it (every
-    lamp a hybrid node is bound to, with no object yet too)."""
+def _users(material, evaluated=None):
+    """Objects with ``material`` in a slot, and those ``evaluated`` (from
+    :func:`_evaluated_users`) gives for it."""
+    users = {obj for obj in bpy.data.objects
+             if any(slot.material == material for slot in getattr(obj, "material_slots", ()))}
+    return users | (evaluated or {}).get(material, set())
+
+
+def _depsgraphs(scenes, evaluate):
+    """``(scene, depsgraph)`` of each view layer of ``scenes``.  ``evaluate``: True,
+    each brought up to date (the context's through
+    ``evaluated_depsgraph_get``, another scene's through a context
+    override); "context", the context's only (a render handler: measured
+    to work there in 5.2 and 4.5), the others as Blender keeps them; False,
+    none brought up to date (a panel's draw).  A view layer Blender keeps
+    no depsgraph of is left out unless evaluated."""
+    context = bpy.context
+    for scene in scenes:
+        for layer in scene.view_layers:
+            try:
+                if scene == context.scene and layer == context.view_layer:
+                    graph = (context.evaluated_depsgraph_get() if evaluate is not False
+                             else layer.depsgraph)
+                elif evaluate is True:
+                    with context.temp_override(scene=scene, view_layer=layer):
+                        graph = context.evaluated_depsgraph_get()
+                else:
+                    graph = layer.depsgraph
+            except (AttributeError, RuntimeError, TypeError):
+                graph = None
+            if graph is not None:
+                yield scene, graph
+
+
+_GEOMETRY = ("mesh", "curves", "pointcloud", "volume", "grease_pencil")
+
+
+def _geometry_materials(geometry, graph, seen) -> set:
+    """The materials of a Geometry Nodes geometry set and of what it
+    instances, at any depth."""
+    out = set()
+    for name in _GEOMETRY:
+        data = getattr(geometry, name, None)
+        if data is not None:
+            out |= {m.original for m in getattr(data, "materials", ()) if m is not None}
+    for ref in geometry.instance_references():
+        if isinstance(ref, bpy.types.Object):
+            out |= _rendered_materials(ref, graph, seen)
+        elif isinstance(ref, bpy.types.Collection):
+            for obj in ref.all_objects:
+                out |= _rendered_materials(obj, graph, seen)
+        else:
+            out |= _geometry_materials(ref, graph, seen)
+    return out
+
+
+def _rendered_materials(obj, graph, seen) -> set:
+    """The materials ``obj`` renders with in ``graph``: its evaluated
+    slots (a Set Material node of its Geometry Nodes included) and those of
+    what it instances (a collection, its children as vertex or face
+    instances, its particles' objects, its Geometry Nodes instances), read
+    from the instancing's references, not from each instance."""
+    key = obj.original.as_pointer()
+    if key in seen:
+        return set()
+    seen.add(key)
+    try:
+        evaluated = obj.evaluated_get(graph)
+    except (RuntimeError, ReferenceError):
+        evaluated = obj
+    out = {slot.material.original for slot in getattr(evaluated, "material_slots", ())
+           if slot.material is not None}
+    instanced = []
+    if obj.instance_type == 'COLLECTION' and obj.instance_collection is not None:
+        instanced += list(obj.instance_collection.all_objects)
+    elif obj.instance_type in ('VERTS', 'FACES'):
+        instanced += list(obj.children)
+    for system in getattr(obj, "particle_systems", ()):
+        settings = system.settings
+        if settings.render_type == 'OBJECT' and settings.instance_object is not None:
+            instanced.append(settings.instance_object)
+        elif settings.render_type == 'COLLECTION' and settings.instance_collection is not None:
+            instanced += list(settings.instance_collection.all_objects)
+    for other in instanced:
+        out |= _rendered_materials(other, graph, seen)
+    if any(m.type == 'NODES' for m in getattr(obj, "modifiers", ())) \
+            and hasattr(evaluated, "evaluated_geometry"):
+        out |= _geometry_materials(evaluated.evaluated_geometry(), graph, seen)
+    return out
+
+
+def _evaluated_users(evaluate=True):
+    """``(users, unknown)``.  ``users``: material -> the objects that render
+    it without a slot naming it: those whose Geometry Nodes modifiers give
+    their geometry the material (a Set Material node), and the instancers
+    (a collection instance, vertex or face instancing, particles, Geometry
+    Nodes instances) of geometry carrying it, whose light linking Cycles
+    applies to their instances (measured in 5.2: an Empty instancing an
+    excluded object's collection lit the instance twice until the Empty was
+    excluded too).  Read in every view layer of their scenes; ``evaluate``:
+    True, each view layer evaluated; "context", the context's only (a
+    render handler); False, none (a panel's draw).  ``unknown``: such
+    objects in scenes none of which had a depsgraph to read (their
+    exclusions are kept as they are)."""
+    candidates = [obj for obj in bpy.data.objects
+                  if obj.instance_type != 'NONE' or len(getattr(obj, "particle_systems", ()))
+                  or any(m.type == 'NODES' for m in getattr(obj, "modifiers", ()))]
+    if not candidates:
+        return {}, set()
+    scenes = {scene for obj in candidates for scene in obj.users_scene}
+    out, read = {}, set()
+    for scene, graph in _depsgraphs(sorted(scenes, key=lambda s: s.name), evaluate):
+        read.add(scene.name)
+        for obj in candidates:
+            if scene in obj.users_scene:
+                for material in _rendered_materials(obj, graph, set()):
+                    out.setdefault(material, set()).add(obj)
+    unknown = {obj for obj in candidates if obj.users_scene
+               and not any(scene.name in read for scene in obj.users_scene)}
+    return out, unknown
+
+
+def _exclusions(evaluate=True):
+    """``(need, unknown)``: lamp object -> the objects hybrid mode must
+    exclude from it (every lamp a hybrid node is bound to, with no object
+    yet too), and the objects whose use of a material could not be read
+    (:func:`_evaluated_users`)."""
     need = {}
-    for mat, node in hybrid_nodes():
-        users = _users(mat)
+    hybrid = list(hybrid_nodes())
+    evaluated, unknown = _evaluated_users(evaluate) if hybrid else ({}, set())
+    for mat, node in hybrid:
+        users = _users(mat, evaluated)
         for lamp in bound_lights(node):
             need.setdefault(lamp, set()).update(users)
-    return need
+    return need, unknown
 
 
 ADDED = "rm_added"
@@ -311,7 +451,7 @@ def sync_light_linking(*, in_render=False) -> int:
     datablock crashes Blender (measured): only objects are linked and
     unlinked then; the collections are made when a lamp is bound."""
     changes = 0
-    need = _exclusions()
+    need, unknown = _exclusions("context" if in_render else True)
     for lamp, objects in need.items():
         coll = _our_collection(lamp, create=not in_render)
         if coll is None:
@@ -330,7 +470,7 @@ def sync_light_linking(*, in_render=False) -> int:
             continue
         lamps = [o for o in bpy.data.objects
                  if o.type == 'LIGHT' and o.light_linking.receiver_collection == coll]
-        wanted = set()
+        wanted = {o.name for o in unknown}
         for lamp in lamps:
             wanted |= {o.name for o in need.get(lamp, ())}
         keep = []
@@ -354,9 +494,10 @@ def sync_light_linking(*, in_render=False) -> int:
     return changes
 
 
-def out_of_sync() -> bool:
-    """Whether the light linking differs from what the hybrid nodes need."""
-    for lamp, objects in _exclusions().items():
+def out_of_sync(evaluate=True) -> bool:
+    """Whether the light linking differs from what the hybrid nodes need
+    (``evaluate``: as for :func:`_evaluated_users`)."""
+    for lamp, objects in _exclusions(evaluate)[0].items():
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             return True

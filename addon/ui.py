@@ -254,7 +254,11 @@ class NODE_OT_rm_set_mode(bpy.types.Operator):
         return _active_rm_node(context) is not None
 
     def execute(self, context):
-        api.set_mode(_active_rm_node(context), self.mode)
+        try:
+            api.set_mode(_active_rm_node(context), self.mode)
+        except ValueError as exc:  # inside a group whose output it cannot reach
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
         return {'FINISHED'}
 
 
@@ -497,7 +501,7 @@ def _draw_node(layout, context, node):
     row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind One")
     if bound:
         box.operator(NODE_OT_rm_unbind_light.bl_idname, icon='X')
-    if mode == "hybrid" and lighting.out_of_sync():
+    if mode == "hybrid" and lighting.out_of_sync(evaluate=False):
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     if mode != "path_traced" and not native_build.has_raycast() \

@@ -171,6 +171,11 @@ def run(args):
             lamp_checks.append(lighting.hybrid_bound_lamp(api, model, osl=osl))
         # EEVEE honours the light linking too: the bound sun reaches the Direct output only
         lamp_checks.append(lighting.hybrid_bound_lamp(api, model, osl=False, eevee=True))
+    # the light linking finds the material's objects through a user's group, Geometry Nodes
+    # and instancing
+    for placement in ("group", "geometry_nodes", "instance"):
+        lamp_checks.append(lighting.hybrid_bound_lamp(api, "cook_torrance", osl=False,
+                                                      placement=placement))
     for osl in (True, False):
         lamp_checks.append(lighting.hybrid_lit_scene(api, samples=128, resolution=64, osl=osl))
     for c in lamp_checks:

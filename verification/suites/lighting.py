@@ -15,7 +15,8 @@ traced comparison, whose subject is that equality), and returns a
   (``eevee=True``) 3e-3 of the peak, its half-float output, plus the same.
 - :func:`hybrid_bound_lamp`: a model in hybrid mode under its bound sun
   alone renders the model exactly (the closure, excluded from the sun by
-  light linking, adds nothing).
+  light linking, adds nothing), with the node in the material, inside a
+  node group of the user's, or the material given by Geometry Nodes.
 - :func:`hybrid_lit_scene`: Trowbridge-Reitz with correlated Smith (an
   exact closure) in hybrid mode under a bound sun, an unbound sun, a sky
   and a floor with bounces, against the same material fully path traced:
@@ -116,41 +117,136 @@ def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resol
                  tolerance=reason, values=values, seconds=time.perf_counter() - t0)
 
 
-def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False):
+PLACEMENTS = ("material", "group", "geometry_nodes", "instance")
+
+
+def _into_user_group(api, mat, node):
+    """Move ``node`` into a shader group of the user's (its BSDF to the
+    group's Shader output), the group node to the material's Surface; the
+    mode set again through the API, inside the group.  Returns the node in
+    the group."""
+    bpy = common.import_bpy()
+    tree = mat.node_tree
+    group = bpy.data.node_groups.new(mat.name + " user group", "ShaderNodeTree")
+    group.interface.new_socket("Shader", in_out='OUTPUT', socket_type='NodeSocketShader')
+    out = group.nodes.new("NodeGroupOutput")
+    inner = group.nodes.new("ShaderNodeGroup")
+    inner.node_tree = node.node_tree
+    inner.label = node.label
+    for src, dst in zip(node.inputs, inner.inputs):
+        if hasattr(src, "default_value"):
+            dst.default_value = src.default_value
+    group.links.new(inner.outputs["BSDF"], out.inputs[0])
+    mode = api.get_mode(node)
+    api.set_mode(node, "path_traced")  # drops the material's hybrid Add Shader
+    tree.nodes.remove(node)
+    holder = tree.nodes.new("ShaderNodeGroup")
+    holder.node_tree = group
+    surface = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    tree.links.new(holder.outputs[0], surface.inputs["Surface"])
+    api.set_mode(inner, mode)
+    return inner
+
+
+def _material_by_geometry_nodes(obj, mat):
+    """``obj``'s slots emptied; a Geometry Nodes modifier's Set Material
+    node gives its geometry ``mat``."""
+    bpy = common.import_bpy()
+    obj.data.materials.clear()
+    tree = bpy.data.node_groups.new(mat.name + " set material", "GeometryNodeTree")
+    for side in ("INPUT", "OUTPUT"):
+        tree.interface.new_socket("Geometry", in_out=side, socket_type='NodeSocketGeometry')
+    given, out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    setter = tree.nodes.new("GeometryNodeSetMaterial")
+    setter.inputs["Material"].default_value = mat
+    tree.links.new(given.outputs[0], setter.inputs["Geometry"])
+    tree.links.new(setter.outputs["Geometry"], out.inputs[0])
+    obj.modifiers.new("RM set material", 'NODES').node_group = tree
+    return tree
+
+
+def _instanced(scene, obj):
+    """``obj`` replaced in ``scene`` by a collection instance of a new
+    object of its mesh (an Empty at the origin: the same geometry, rendered
+    as an instance); the new object is in no view layer, as in a file that
+    keeps its instanced objects out of the scene.  (Not ``obj.copy()``: a
+    copy carries the light linking Blender last evaluated for ``obj``.)
+    Returns the Empty, the collection and the new object."""
+    bpy = common.import_bpy()
+    source = bpy.data.collections.new(obj.name + " source")
+    copy = bpy.data.objects.new(obj.name + " instanced", obj.data)
+    copy.matrix_world = obj.matrix_world
+    copy.visible_diffuse, copy.visible_glossy = obj.visible_diffuse, obj.visible_glossy
+    source.objects.link(copy)
+    for coll in list(obj.users_collection):
+        coll.objects.unlink(obj)
+    empty = bpy.data.objects.new(obj.name + " instancer", None)
+    empty.instance_type = 'COLLECTION'
+    empty.instance_collection = source
+    empty.visible_diffuse, empty.visible_glossy = obj.visible_diffuse, obj.visible_glossy
+    scene.collection.objects.link(empty)
+    return empty, source, copy
+
+
+def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
+                      placement="material"):
     """The tiles are hidden from diffuse and glossy rays: Cycles traces a
     BSDF ray even without bounces to collect emission, and the neighbours'
     Direct output is an emission (their reflection of the sun: right in a
     lit scene, not this check's subject).  ``eevee``: rendered by EEVEE
     (native nodes, ``osl`` ignored), which honours the light linking too,
-    held to 3e-3 of the peak (half-float output)."""
+    held to 3e-3 of the peak (half-float output).  ``placement``: the
+    node in the material ("material"), inside a node group of the user's
+    there ("group"), the material given to the tiles by a Geometry Nodes
+    modifier instead of a slot ("geometry_nodes"), or the tiles rendered as
+    a collection instance ("instance"): the light linking finds the tiles,
+    or their instancer, in each case."""
+    if placement not in PLACEMENTS:
+        raise ValueError(f"placement={placement!r}; allowed: {', '.join(PLACEMENTS)}")
     t0 = time.perf_counter()
     bpy = common.import_bpy()
     light = gonio.normalize((0.35, 0.25, 0.90))
     backend = _backend(osl, eevee)
-    name = f"hybrid_{model}_{backend}"
+    where = "" if placement == "material" else f"_{placement}"
+    name = f"hybrid_{model}_{backend}{where}"
     mat = _material(name)
     node = api.add_model(mat, model, mode="hybrid")
     g = gonio.build_gonio_scene(mat, light_dir=light, resolution=resolution,
                                 osl=backend == "osl", name=name)
     _use_backend(g.scene, api, backend)
     g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
+    made, receiver = [], g.tiles_object
     try:
+        if placement == "group":
+            node = _into_user_group(api, mat, node)
+            made.append(node.id_data)
+        elif placement == "geometry_nodes":
+            made.append(_material_by_geometry_nodes(g.tiles_object, mat))
+        elif placement == "instance":
+            receiver, source, copy = _instanced(g.scene, g.tiles_object)
+            made += [receiver, source, copy]
         api.bind_light(node, g.sun)
         coll = g.sun.light_linking.receiver_collection
         excluded = coll is not None and any(
-            o == g.tiles_object and e.light_linking.link_state == 'EXCLUDE'
+            o == receiver and e.light_linking.link_state == 'EXCLUDE'
             for e, o in zip(coll.collection_objects, coll.objects))
         img = g.render()
     finally:
         api.unbind_light(node)
         bpy.data.scenes.remove(g.scene)
         bpy.data.materials.remove(mat)
+        for data in made:
+            bpy.data.batch_remove([data])
     expected = g.reference(model)
     worst, ratio = compare(img, expected, g.mask, eevee=eevee)
     key, label, within, reason = _measure(eevee)
-    values = {"model": model, "backend": backend, key: worst, "excluded": excluded, "n_lit": int(g.lit.sum()),
+    values = {"model": model, "backend": backend, "placement": placement, key: worst,
+              "excluded": excluded, "n_lit": int(g.lit.sum()),
               "peak": float(expected[g.lit].max()) if g.lit.any() else 0.0}
-    return Check(name=f"{model} hybrid under its bound sun, {backend}",
+    where = {"material": "", "group": " (inside a user's group)",
+             "geometry_nodes": " (material by Geometry Nodes)",
+             "instance": " (a collection instance)"}[placement]
+    return Check(name=f"{model} hybrid under its bound sun{where}, {backend}",
                  passed=ratio <= 1.0 and excluded,
                  measured=f"max {label} {worst:.2e}",
                  expected=within + ": the bound lamp exactly, no closure response to it",
