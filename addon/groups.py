@@ -185,28 +185,99 @@ def _tree_backends(tree, seen, out) -> None:
                 _tree_backends(node.node_tree, seen, out)
 
 
+def _scene_materials(scene) -> set:
+    """The materials ``scene``'s objects render with (:func:`rendered_materials`,
+    in the depsgraphs Blender keeps of its view layers, none evaluated)."""
+    graphs = [layer.depsgraph for layer in scene.view_layers if layer.depsgraph is not None]
+    out = set()
+    for obj in scene.objects:
+        for graph in graphs or [None]:
+            out |= rendered_materials(obj, graph)
+    return out
+
+
 def scene_backends(scene) -> set:
     """The backends ('auto', 'osl', 'native') of the RM groups that the
-    materials of ``scene``'s objects and its world use."""
+    materials of ``scene``'s objects (through slots, Geometry Nodes and
+    instancing) and its world use."""
     seen, out = set(), set()
     if scene.world is not None:
         _tree_backends(scene.world.node_tree, seen, out)
-    for obj in scene.objects:
-        for slot in obj.material_slots:
-            if slot.material is not None:
-                _tree_backends(slot.material.node_tree, seen, out)
+    for material in _scene_materials(scene):
+        _tree_backends(material.node_tree, seen, out)
     return out
 
 
 def scene_uses_rm_groups(scene) -> bool:
-    """Whether a material of an object of ``scene``, or its world, holds an
-    RM group node (directly or inside other groups)."""
+    """Whether a material of an object of ``scene`` (through slots,
+    Geometry Nodes and instancing), or its world, holds an RM group node
+    (directly or inside other groups)."""
     seen = set()
     if scene.world is not None and _tree_uses_rm(scene.world.node_tree, seen):
         return True
-    materials = {slot.material for obj in scene.objects for slot in obj.material_slots
-                 if slot.material is not None}
-    return any(_tree_uses_rm(m.node_tree, seen) for m in materials)
+    return any(_tree_uses_rm(m.node_tree, seen) for m in _scene_materials(scene))
+
+
+_GEOMETRY = ("mesh", "curves", "pointcloud", "volume", "grease_pencil")
+
+
+def _geometry_materials(geometry, graph, seen) -> set:
+    """The materials of a Geometry Nodes geometry set and of what it
+    instances, at any depth."""
+    out = set()
+    for name in _GEOMETRY:
+        data = getattr(geometry, name, None)
+        if data is not None:
+            out |= {m.original for m in getattr(data, "materials", ()) if m is not None}
+    for ref in geometry.instance_references():
+        if isinstance(ref, bpy.types.Object):
+            out |= rendered_materials(ref, graph, seen)
+        elif isinstance(ref, bpy.types.Collection):
+            for obj in ref.all_objects:
+                out |= rendered_materials(obj, graph, seen)
+        else:
+            out |= _geometry_materials(ref, graph, seen)
+    return out
+
+
+def rendered_materials(obj, graph=None, seen=None) -> set:
+    """The materials ``obj`` renders with in the depsgraph ``graph``: its
+    evaluated slots (a Set Material node of its Geometry Nodes included)
+    and those of what it instances (a collection, its children as vertex
+    or face instances, its particles' objects, its Geometry Nodes
+    instances), read from the instancing's references, not from each
+    instance.  Without ``graph``: its slots and what it instances outside
+    Geometry Nodes."""
+    seen = set() if seen is None else seen
+    key = obj.original.as_pointer()
+    if key in seen:
+        return set()
+    seen.add(key)
+    evaluated = obj
+    if graph is not None:
+        try:
+            evaluated = obj.evaluated_get(graph)
+        except (RuntimeError, ReferenceError):
+            pass
+    out = {slot.material.original for slot in getattr(evaluated, "material_slots", ())
+           if slot.material is not None}
+    instanced = []
+    if obj.instance_type == 'COLLECTION' and obj.instance_collection is not None:
+        instanced += list(obj.instance_collection.all_objects)
+    elif obj.instance_type in ('VERTS', 'FACES'):
+        instanced += list(obj.children)
+    for system in getattr(obj, "particle_systems", ()):
+        settings = system.settings
+        if settings.render_type == 'OBJECT' and settings.instance_object is not None:
+            instanced.append(settings.instance_object)
+        elif settings.render_type == 'COLLECTION' and settings.instance_collection is not None:
+            instanced += list(settings.instance_collection.all_objects)
+    for other in instanced:
+        out |= rendered_materials(other, graph, seen)
+    if graph is not None and hasattr(evaluated, "evaluated_geometry") \
+            and any(m.type == 'NODES' for m in getattr(obj, "modifiers", ())):
+        out |= _geometry_materials(evaluated.evaluated_geometry(), graph, seen)
+    return out
 
 
 # ---------------------------------------------------------------------------

@@ -324,63 +324,6 @@ def _depsgraphs(scenes, evaluate):
                 yield scene, graph
 
 
-_GEOMETRY = ("mesh", "curves", "pointcloud", "volume", "grease_pencil")
-
-
-def _geometry_materials(geometry, graph, seen) -> set:
-    """The materials of a Geometry Nodes geometry set and of what it
-    instances, at any depth."""
-    out = set()
-    for name in _GEOMETRY:
-        data = getattr(geometry, name, None)
-        if data is not None:
-            out |= {m.original for m in getattr(data, "materials", ()) if m is not None}
-    for ref in geometry.instance_references():
-        if isinstance(ref, bpy.types.Object):
-            out |= _rendered_materials(ref, graph, seen)
-        elif isinstance(ref, bpy.types.Collection):
-            for obj in ref.all_objects:
-                out |= _rendered_materials(obj, graph, seen)
-        else:
-            out |= _geometry_materials(ref, graph, seen)
-    return out
-
-
-def _rendered_materials(obj, graph, seen) -> set:
-    """The materials ``obj`` renders with in ``graph``: its evaluated
-    slots (a Set Material node of its Geometry Nodes included) and those of
-    what it instances (a collection, its children as vertex or face
-    instances, its particles' objects, its Geometry Nodes instances), read
-    from the instancing's references, not from each instance."""
-    key = obj.original.as_pointer()
-    if key in seen:
-        return set()
-    seen.add(key)
-    try:
-        evaluated = obj.evaluated_get(graph)
-    except (RuntimeError, ReferenceError):
-        evaluated = obj
-    out = {slot.material.original for slot in getattr(evaluated, "material_slots", ())
-           if slot.material is not None}
-    instanced = []
-    if obj.instance_type == 'COLLECTION' and obj.instance_collection is not None:
-        instanced += list(obj.instance_collection.all_objects)
-    elif obj.instance_type in ('VERTS', 'FACES'):
-        instanced += list(obj.children)
-    for system in getattr(obj, "particle_systems", ()):
-        settings = system.settings
-        if settings.render_type == 'OBJECT' and settings.instance_object is not None:
-            instanced.append(settings.instance_object)
-        elif settings.render_type == 'COLLECTION' and settings.instance_collection is not None:
-            instanced += list(settings.instance_collection.all_objects)
-    for other in instanced:
-        out |= _rendered_materials(other, graph, seen)
-    if any(m.type == 'NODES' for m in getattr(obj, "modifiers", ())) \
-            and hasattr(evaluated, "evaluated_geometry"):
-        out |= _geometry_materials(evaluated.evaluated_geometry(), graph, seen)
-    return out
-
-
 def _evaluated_users(evaluate=True):
     """``(users, unknown)``.  ``users``: material -> the objects that render
     it without a slot naming it: those whose Geometry Nodes modifiers give
@@ -405,7 +348,7 @@ def _evaluated_users(evaluate=True):
         read.add(scene.name)
         for obj in candidates:
             if scene in obj.users_scene:
-                for material in _rendered_materials(obj, graph, set()):
+                for material in groups.rendered_materials(obj, graph):
                     out.setdefault(material, set()).add(obj)
     unknown = {obj for obj in candidates if obj.users_scene
                and not any(scene.name in read for scene in obj.users_scene)}

@@ -467,6 +467,48 @@ def test_scene_uses_rm_groups(nodes, bpy):
     assert nodes.scene_uses_rm_groups(scene)
 
 
+def test_scene_uses_rm_groups_through_instancing_and_geometry_nodes(nodes, bpy):
+    """A material no slot of the scene names still counts when an object
+    renders it: a collection instance of an object that has it, and
+    Geometry Nodes setting it (read in the depsgraph the view layer has)."""
+    scene = bpy.data.scenes.new("rm_uses_indirectly")
+    mat = new_material(bpy, "rm instanced material")
+    add_group_node(mat, nodes.ensure_group("lambert"))
+    mesh = bpy.data.meshes.new("rm instanced mesh")
+    mesh.materials.append(mat)
+    source = bpy.data.collections.new("rm instanced source")
+    source.objects.link(bpy.data.objects.new("rm instanced", mesh))
+    empty = bpy.data.objects.new("rm instancer", None)
+    scene.collection.objects.link(empty)
+    assert not nodes.scene_uses_rm_groups(scene)
+    empty.instance_type, empty.instance_collection = 'COLLECTION', source
+    assert nodes.scene_uses_rm_groups(scene)
+    empty.instance_collection = None
+    assert not nodes.scene_uses_rm_groups(scene)
+    points = bpy.data.meshes.new("rm set material mesh")
+    points.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    host = bpy.data.objects.new("rm set material", points)
+    scene.collection.objects.link(host)
+    tree = bpy.data.node_groups.new("rm set material", "GeometryNodeTree")
+    for side in ("INPUT", "OUTPUT"):
+        tree.interface.new_socket("Geometry", in_out=side, socket_type='NodeSocketGeometry')
+    given, out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    setter = tree.nodes.new("GeometryNodeSetMaterial")
+    setter.inputs["Material"].default_value = mat
+    tree.links.new(given.outputs[0], setter.inputs["Geometry"])
+    tree.links.new(setter.outputs["Geometry"], out.inputs[0])
+    host.modifiers.new("set material", 'NODES').node_group = tree
+    layer = scene.view_layers[0]
+    with bpy.context.temp_override(scene=scene, view_layer=layer):
+        bpy.context.evaluated_depsgraph_get()  # as the interface keeps one
+    assert nodes.scene_uses_rm_groups(scene)
+    setter.inputs["Material"].default_value = None
+    with bpy.context.temp_override(scene=scene, view_layer=layer):
+        bpy.context.evaluated_depsgraph_get()
+    assert not nodes.scene_uses_rm_groups(scene)
+    bpy.data.scenes.remove(scene)
+
+
 # ---------------------------------------------------------------------------
 # The installed extension: Add menu, sidebar, operators, handlers
 
