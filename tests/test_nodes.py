@@ -16,6 +16,7 @@ import pytest
 
 from addon import catalogue
 from verification.harness import session as bpy_env
+from verification.suites import lighting
 
 F32 = dict(rel=1e-6, abs=1e-7)  # interface values are stored as float32
 
@@ -489,15 +490,8 @@ def test_scene_uses_rm_groups_through_instancing_and_geometry_nodes(nodes, bpy):
     points.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
     host = bpy.data.objects.new("rm set material", points)
     scene.collection.objects.link(host)
-    tree = bpy.data.node_groups.new("rm set material", "GeometryNodeTree")
-    for side in ("INPUT", "OUTPUT"):
-        tree.interface.new_socket("Geometry", in_out=side, socket_type='NodeSocketGeometry')
-    given, out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
-    setter = tree.nodes.new("GeometryNodeSetMaterial")
-    setter.inputs["Material"].default_value = mat
-    tree.links.new(given.outputs[0], setter.inputs["Geometry"])
-    tree.links.new(setter.outputs["Geometry"], out.inputs[0])
-    host.modifiers.new("set material", 'NODES').node_group = tree
+    tree = lighting.material_by_geometry_nodes(host, mat)
+    setter = next(n for n in tree.nodes if n.bl_idname == "GeometryNodeSetMaterial")
     layer = scene.view_layers[0]
     with bpy.context.temp_override(scene=scene, view_layer=layer):
         bpy.context.evaluated_depsgraph_get()  # as the interface keeps one

@@ -148,7 +148,7 @@ def _into_user_group(api, mat, node):
     return inner
 
 
-def _material_by_geometry_nodes(obj, mat):
+def material_by_geometry_nodes(obj, mat):
     """``obj``'s slots emptied; a Geometry Nodes modifier's Set Material
     node gives its geometry ``mat``."""
     bpy = common.import_bpy()
@@ -221,7 +221,7 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
             node = _into_user_group(api, mat, node)
             made.append(node.id_data)
         elif placement == "geometry_nodes":
-            made.append(_material_by_geometry_nodes(g.tiles_object, mat))
+            made.append(material_by_geometry_nodes(g.tiles_object, mat))
         elif placement == "instance":
             receiver, source, copy = _instanced(g.scene, g.tiles_object)
             made += [receiver, source, copy]
