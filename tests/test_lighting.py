@@ -348,6 +348,36 @@ def _mesh_object(bpy, scene, name, mat=None):
     return obj
 
 
+def test_geometry_nodes_users_are_excluded_on_save_in_another_scene(
+        bpy, installed_extension, tmp_path):
+    """An object given the hybrid material by Geometry Nodes after the lamp
+    was bound, in a scene that is not the context's: the save handler
+    evaluates that scene's view layer and excludes the object."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    scene = bpy.data.scenes.new("rm_ll_gn_save")
+    assert bpy.context.scene != scene
+    sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_ll_gn_save_sun")
+    mat = _material("rm_ll_gn_save")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    obj = _mesh_object(bpy, scene, "rm_ll_gn_save_obj")
+    tree = None
+    try:
+        api.bind_light(node, sun)
+        coll = sun.light_linking.receiver_collection
+        tree = lighting.material_by_geometry_nodes(obj, mat)
+        assert obj.name not in coll.objects
+        bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "gn.blend"), copy=True)
+        assert obj.name in coll.objects
+        assert _entry(coll, obj).light_linking.link_state == 'EXCLUDE'
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+        if tree is not None:
+            bpy.data.node_groups.remove(tree)
+
+
 def test_unbinding_removes_only_what_binding_added(api, bpy):
     scene = bpy.data.scenes.new("rm_ll_keep")
     sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_ll_keep_sun")
