@@ -370,6 +370,32 @@ def _exclusions(evaluate=True):
     return need, unknown
 
 
+def also_other_materials(node) -> list:
+    """The objects hybrid mode excludes from ``node``'s bound lamps that
+    also render a material no hybrid node bound to that lamp renders with
+    (another slot, or what they instance): light linking excludes a whole
+    object, so the bound lamp no longer lights those parts.  Read from
+    slots and instancing outside Geometry Nodes (no depsgraph is
+    evaluated: the sidebar draws it).  Sorted by name."""
+    lamps = set(bound_lights(node))
+    if not lamps:
+        return []
+    exact = {}
+    for mat, other in hybrid_nodes():
+        for lamp in bound_lights(other):
+            exact.setdefault(lamp, set()).add(mat)
+    out = set()
+    for lamp in lamps:
+        coll = lamp.light_linking.receiver_collection
+        if coll is None:
+            continue
+        for obj in coll.get(ADDED, []):
+            obj = coll.objects.get(obj)
+            if obj is not None and groups.rendered_materials(obj) - exact.get(lamp, set()):
+                out.add(obj)
+    return sorted(out, key=lambda o: o.name)
+
+
 ADDED = "rm_added"
 MADE = "rm_made"
 

@@ -501,6 +501,10 @@ def _draw_node(layout, context, node):
     row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind One")
     if bound:
         box.operator(NODE_OT_rm_unbind_light.bl_idname, icon='X')
+    partly = lighting.also_other_materials(node) if mode == "hybrid" else []
+    if partly:
+        box.label(text=f"{len(partly)} excluded object(s) also use other materials, "
+                  "which the bound lamps no longer light", icon='INFO')
     if mode == "hybrid" and lighting.out_of_sync(evaluate=False):
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')

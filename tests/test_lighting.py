@@ -378,6 +378,36 @@ def test_geometry_nodes_users_are_excluded_on_save_in_another_scene(
             bpy.data.node_groups.remove(tree)
 
 
+def test_excluded_objects_that_also_use_other_materials_are_named(api, bpy):
+    """Light linking excludes a whole object: one with the hybrid material
+    and another one loses the bound lamp on both.  The sidebar names such
+    objects; an object whose other material is hybrid under the same lamp
+    is not one of them."""
+    from addon import lighting as linking
+    scene = bpy.data.scenes.new("rm_ll_partly")
+    sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_ll_partly_sun")
+    mat, plain, second = (_material(f"rm_ll_partly_{k}") for k in range(3))
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    other = api.add_model(second, "phong", mode="hybrid")
+    both = _mesh_object(bpy, scene, "rm_ll_partly_both", mat)
+    both.data.materials.append(plain)
+    _mesh_object(bpy, scene, "rm_ll_partly_one", mat)
+    pair = _mesh_object(bpy, scene, "rm_ll_partly_pair", mat)
+    pair.data.materials.append(second)
+    try:
+        api.bind_light(node, sun)
+        assert linking.also_other_materials(node) == [both, pair]
+        api.bind_light(other, sun)
+        assert linking.also_other_materials(node) == [both]
+        assert linking.also_other_materials(other) == [both]
+    finally:
+        api.unbind_light(node)
+        api.unbind_light(other)
+        bpy.data.scenes.remove(scene)
+        for m in (mat, plain, second):
+            bpy.data.materials.remove(m)
+
+
 def test_unbinding_removes_only_what_binding_added(api, bpy):
     scene = bpy.data.scenes.new("rm_ll_keep")
     sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_ll_keep_sun")

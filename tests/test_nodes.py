@@ -662,6 +662,29 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     assert node.node_tree.name == "RM Phong (Energy)"
 
 
+def test_sidebar_names_hybrid_objects_that_also_use_other_materials(ui, bpy):
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    scene = bpy.context.scene
+    mat, plain = new_material(bpy, "rm partly hybrid"), new_material(bpy, "rm plain")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    mesh = bpy.data.meshes.new("rm partly")
+    mesh.materials.append(mat)
+    obj = bpy.data.objects.new("rm partly", mesh)
+    scene.collection.objects.link(obj)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    scene.collection.objects.link(sun)
+    api.bind_light(node, sun)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=sun,
+                        selected_objects=[sun])
+    message = "1 excluded object(s) also use other materials, which the bound lamps no longer light"
+    for expected in (False, True):
+        layout = Recorder()
+        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
+        assert (message in [e[1] for e in layout.of("label")]) == expected
+        mesh.materials.append(plain)
+    api.unbind_light(node)
+
+
 def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     """GGX with correlated Smith is Cycles' own closure up to alpha 1; the
     sidebar reads the node's width and says when Cycles' clamp makes it
