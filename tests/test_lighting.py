@@ -129,20 +129,24 @@ def test_hybrid_renders_a_bound_lamp_exactly(api, model, backend):
     assert c.passed, c.measured
 
 
+@pytest.mark.parametrize("backend", ["native", "eevee"])
 @pytest.mark.parametrize("placement", ["group", "geometry_nodes", "instance"])
 @pytest.mark.parametrize("model", ["lambert", "cook_torrance"])
-def test_hybrid_finds_the_material_through_groups_and_geometry_nodes(api, model, placement):
+def test_hybrid_finds_the_material_through_groups_and_geometry_nodes(api, model, placement,
+                                                                     backend):
     """The hybrid node inside a node group of the user's (its mode set
     there through the API), the material given to the tiles by a Geometry
     Nodes modifier's Set Material node (no slot names it), or the tiles
     rendered as a collection instance: the tiles (the instancer) are still
     excluded from the bound sun, and the render is the model (1e-4
-    relative, float32; native nodes only: the bookkeeping does not depend
-    on the backend).  Before the light linking looked into groups, the
+    relative, float32; in EEVEE 3e-3 of the peak, half float; the
+    bookkeeping does not depend on the backend, the engines' reading of it
+    might).  Before the light linking looked into groups, the
     evaluated geometry and instancers, none was excluded, and with Geometry
     Nodes the sun counted twice (Lambert 1.0 off; for an instance see the
     next test)."""
-    c = lighting.hybrid_bound_lamp(api, model, osl=False, resolution=RES, placement=placement)
+    c = lighting.hybrid_bound_lamp(api, model, osl=False, resolution=RES, placement=placement,
+                                   eevee=backend == "eevee")
     print(f"\n{c.name}: {c.measured}")
     assert c.values["excluded"] and c.values["n_lit"] > 100 and c.values["peak"] > 0
     assert c.passed, c.measured
