@@ -183,6 +183,15 @@ def _bind_one(node, k, light_object):
                 "u": _prop(light, "use_temperature")})
 
 
+def sized_lamps(lamps) -> list:
+    """The names of ``lamps`` with a size: a sun's Angle or a point or spot
+    lamp's Radius above 0.  Exact mode takes every bound lamp as ideal (a
+    sun as one direction, the others as points, with hard shadows), where
+    Cycles' path tracing spreads a sized lamp over its disc or sphere."""
+    return [obj.name for obj in lamps
+            if (obj.data.angle if obj.data.type == 'SUN' else obj.data.shadow_soft_size) > 0]
+
+
 def _check_lamps(lamps):
     if not lamps:
         raise ValueError("bind_light needs at least one lamp")

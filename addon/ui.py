@@ -493,6 +493,10 @@ def _draw_node(layout, context, node):
     bound = api.bound_lights(node)
     box.label(text="Lamps: " + (", ".join(o.name for o in bound) if bound
                                 else "none (the Light inputs)"), icon='LIGHT')
+    sized = lighting.sized_lamps(bound)
+    if sized and mode != "path_traced":
+        box.label(text="Taken as a direction or point, size ignored: " + ", ".join(sized),
+                  icon='INFO')
     lamps = _selected_lamps(context)
     row = box.row(align=True)
     if lamps:

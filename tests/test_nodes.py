@@ -662,7 +662,7 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     assert node.node_tree.name == "RM Phong (Energy)"
 
 
-def test_sidebar_names_hybrid_objects_that_also_use_other_materials(ui, bpy):
+def test_sidebar_names_hybrid_objects_that_also_use_other_materials_and_sized_lamps(ui, bpy):
     api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
     scene = bpy.context.scene
     mat, plain = new_material(bpy, "rm partly hybrid"), new_material(bpy, "rm plain")
@@ -677,11 +677,16 @@ def test_sidebar_names_hybrid_objects_that_also_use_other_materials(ui, bpy):
     ctx = shader_editor(scene=scene, active_node=node, active_object=sun,
                         selected_objects=[sun])
     message = "1 excluded object(s) also use other materials, which the bound lamps no longer light"
+    sized = "Taken as a direction or point, size ignored: Sun"
+    assert sun.data.angle > 0  # a new sun's 0.526 degrees
     for expected in (False, True):
         layout = Recorder()
         bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
-        assert (message in [e[1] for e in layout.of("label")]) == expected
+        labels = [e[1] for e in layout.of("label")]
+        assert (message in labels) == expected
+        assert (sized in labels) != expected
         mesh.materials.append(plain)
+        sun.data.angle = 0.0
     api.unbind_light(node)
 
 
