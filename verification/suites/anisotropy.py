@@ -270,6 +270,7 @@ def hair_run(*, resolution=(96, 96), strength=2.0, path=None, via=None):
     # Through the api the Light inputs follow a sun lamp (bind_light); the
     # lamp itself lights nothing here (the outputs are emissions).
     lamp = common.add_sun(scene, sun, strength)
+    lamp.data.use_shadow = False  # the reference has no shadows; bound Shadows follow it
     if (via or VIA) == "api":
         light = {"shadows": 0.0}
     else:
