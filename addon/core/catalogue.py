@@ -345,7 +345,8 @@ LIGHT_INPUTS = (
     Param("light_color", "Light Color", "color", (1.0, 1.0, 1.0),
           "Exact mode: colour of the light", minimum=0.0, maximum=1e6, panel="Light"),
     Param("shadows", "Shadows", "factor", 1.0,
-          "Exact mode: 1 casts a shadow ray toward the light, 0 ignores occluders",
+          "Exact mode: 1 casts a shadow ray toward the light, 0 ignores occluders (a bound "
+          "lamp sets it from its Cast Shadow)",
           minimum=0.0, maximum=1.0, panel="Light"),
     Param("spot", "Spot", "factor", 0.0,
           "Exact mode, point light: 1 makes it a spot (cone of Spot Size around the reversed "
