@@ -401,8 +401,8 @@ def also_other_materials(node) -> list:
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             continue
-        for obj in coll.get(ADDED, []):
-            obj = coll.objects.get(obj)
+        for name in coll.get(ADDED, []):
+            obj = coll.objects.get(name)
             if obj is not None and groups.rendered_materials(obj) - exact.get(lamp, set()):
                 out.add(obj)
     return sorted(out, key=lambda o: o.name)

@@ -17,8 +17,8 @@
   with bounces: the hybrid render equals the fully path-traced one within
   Monte Carlo noise (see the test for the bound), with OSL and without.
 - **Light linking bookkeeping**: the hybrid node found inside a user's
-  group, and the material on geometry Geometry Nodes make; objects that
-  get the material later are
+  group, the material on geometry Geometry Nodes make, and the instancers
+  of geometry with it; objects that get the material later are
   excluded on render and on save; unbinding removes exactly what binding
   added, not what a user linked by hand; the file renders the same without
   the extension.
@@ -142,9 +142,10 @@ def test_hybrid_finds_the_material_through_groups_and_geometry_nodes(api, model,
     relative, float32; in EEVEE 3e-3 of the peak, half float; the
     bookkeeping does not depend on the backend, the engines' reading of it
     might).  Before the light linking looked into groups, the
-    evaluated geometry and instancers, none was excluded, and with Geometry
-    Nodes the sun counted twice (Lambert 1.0 off; for an instance see the
-    next test)."""
+    evaluated geometry and instancers, none of the three was excluded (of
+    the instance, only the instanced object was), and with Geometry Nodes
+    the sun counted twice (Lambert 1.0 off; for an instance see the next
+    test)."""
     c = lighting.hybrid_bound_lamp(api, model, osl=False, resolution=RES, placement=placement,
                                    eevee=backend == "eevee")
     print(f"\n{c.name}: {c.measured}")
@@ -152,7 +153,7 @@ def test_hybrid_finds_the_material_through_groups_and_geometry_nodes(api, model,
     assert c.passed, c.measured
 
 
-def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy, tmp_path):
+def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy):
     """A plane with the hybrid material, in a collection outside the view
     layer, rendered through an Empty that instances the collection.  Cycles
     takes an instance's light linking from its instancer where the

@@ -16,7 +16,8 @@ traced comparison, whose subject is that equality), and returns a
 - :func:`hybrid_bound_lamp`: a model in hybrid mode under its bound sun
   alone renders the model exactly (the closure, excluded from the sun by
   light linking, adds nothing), with the node in the material, inside a
-  node group of the user's, or the material given by Geometry Nodes.
+  node group of the user's, the material given by Geometry Nodes, or the
+  tiles rendered as a collection instance.
 - :func:`hybrid_lit_scene`: Trowbridge-Reitz with correlated Smith (an
   exact closure) in hybrid mode under a bound sun, an unbound sun, a sky
   and a floor with bounces, against the same material fully path traced:
@@ -169,9 +170,12 @@ def _instanced(scene, obj):
     """``obj`` replaced in ``scene`` by a collection instance of a new
     object of its mesh (an Empty at the origin: the same geometry, rendered
     as an instance); the new object is in no view layer, as in a file that
-    keeps its instanced objects out of the scene.  (Not ``obj.copy()``: a
-    copy carries the light linking Blender last evaluated for ``obj``.)
-    Returns the Empty, the collection and the new object."""
+    keeps its instanced objects out of the scene.  In this scene Blender
+    applied the instanced object's own exclusion (measured: the render
+    right with only the object excluded), so here it is the check's
+    ``excluded``, the instancer in the sun's collection, that tells; the
+    render tells in tests/test_lighting.py's instancer test.  Returns the
+    Empty, the collection and the new object."""
     bpy = common.import_bpy()
     source = bpy.data.collections.new(obj.name + " source")
     copy = bpy.data.objects.new(obj.name + " instanced", obj.data)
