@@ -336,7 +336,7 @@ def _depsgraphs(scenes, evaluate):
                 yield scene, graph
 
 
-def _evaluated_users(evaluate=True):
+def _evaluated_users(evaluate=True, lamp_scenes=None):
     """``(users, unknown)``.  ``users``: material -> the objects that render
     it without a slot naming it: those whose Geometry Nodes modifiers give
     their geometry the material (a Set Material node), and the instancers
@@ -344,7 +344,9 @@ def _evaluated_users(evaluate=True):
     Nodes instances) of geometry carrying it, whose light linking Cycles
     applies to their instances (measured in 5.2: an Empty instancing an
     excluded object's collection lit the instance twice until the Empty was
-    excluded too).  Read in every view layer of their scenes; ``evaluate``:
+    excluded too).  Read in every view layer of their scenes that are in
+    ``lamp_scenes`` (where the bound lamps are, and so where an exclusion
+    can matter; every scene if None); ``evaluate``:
     True, each view layer evaluated; "context", the context's only (a
     render handler); False, none (a panel's draw).  ``unknown``: such
     objects in scenes none of which had a depsgraph to read (their
@@ -354,7 +356,8 @@ def _evaluated_users(evaluate=True):
                   or any(m.type == 'NODES' for m in getattr(obj, "modifiers", ()))]
     if not candidates:
         return {}, set()
-    scenes = {scene for obj in candidates for scene in obj.users_scene}
+    scenes = {scene for obj in candidates for scene in obj.users_scene
+              if lamp_scenes is None or scene in lamp_scenes}
     out, read = {}, set()
     for scene, graph in _depsgraphs(sorted(scenes, key=lambda s: s.name), evaluate):
         read.add(scene.name)
@@ -362,7 +365,7 @@ def _evaluated_users(evaluate=True):
             if scene in obj.users_scene:
                 for material in groups.rendered_materials(obj, graph):
                     out.setdefault(material, set()).add(obj)
-    unknown = {obj for obj in candidates if obj.users_scene
+    unknown = {obj for obj in candidates if any(scene in scenes for scene in obj.users_scene)
                and not any(scene.name in read for scene in obj.users_scene)}
     return out, unknown
 
@@ -373,11 +376,13 @@ def _exclusions(evaluate=True):
     yet too), and the objects whose use of a material could not be read
     (:func:`_evaluated_users`)."""
     need = {}
-    hybrid = list(hybrid_nodes())
-    evaluated, unknown = _evaluated_users(evaluate) if hybrid else ({}, set())
-    for mat, node in hybrid:
+    hybrid = [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
+    lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
+                   for scene in lamp.users_scene}
+    evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
+    for mat, _node, lamps in hybrid:
         users = _users(mat, evaluated)
-        for lamp in bound_lights(node):
+        for lamp in lamps:
             need.setdefault(lamp, set()).update(users)
     return need, unknown
 

@@ -281,6 +281,32 @@ def test_every_kind_of_instancer_of_a_hybrid_material_is_excluded(api, bpy):
         bpy.data.batch_remove(made + trees)
 
 
+def test_only_the_bound_lamps_scenes_are_evaluated(api, bpy):
+    """An exclusion matters only where the bound lamp renders: a scene with
+    Geometry Nodes giving the material, but without the lamp, is neither
+    evaluated (Blender keeps no depsgraph of it after binding) nor are its
+    objects excluded; in the lamp's scene the same set-up is both."""
+    here, there = bpy.data.scenes.new("rm_ll_lamp_scene"), bpy.data.scenes.new("rm_ll_other")
+    sun = lit.add_lamp(here, lit.Lamp("SUN"), "rm_ll_scenes_sun")
+    mat = _material("rm_ll_scenes")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    near = _mesh_object(bpy, here, "rm_ll_scenes_near")
+    far = _mesh_object(bpy, there, "rm_ll_scenes_far")
+    trees = [lighting.material_by_geometry_nodes(obj, mat) for obj in (near, far)]
+    try:
+        api.bind_light(node, sun)
+        coll = sun.light_linking.receiver_collection
+        assert near.name in coll.objects and far.name not in coll.objects
+        assert here.view_layers[0].depsgraph is not None
+        assert there.view_layers[0].depsgraph is None
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(here)
+        bpy.data.scenes.remove(there)
+        bpy.data.materials.remove(mat)
+        bpy.data.batch_remove(trees)
+
+
 def test_set_mode_inside_a_users_group_rewires_the_group(api, bpy):
     """In a node group of the user's, a mode's output takes the place of
     the one before (the group's output, not a Material Output made inside
