@@ -21,7 +21,7 @@ through the geometry its Geometry Nodes modifiers make (a Set Material
 node), and an instancer (a collection instance, particles, Geometry Nodes
 instances) uses the materials of what it instances: Cycles applies an
 instancer's light linking to its instances.  These are read from the
-evaluated depsgraphs of the scenes' view layers.
+evaluated depsgraphs of the bound lamps' scenes' view layers.
 What the extension adds is recorded on the collection
 (``rm_added``; ``rm_made`` when it made the collection), so that
 :func:`sync_light_linking` adds objects that got the material later, drops
