@@ -227,7 +227,8 @@ def test_bound_sun_drivers_are_simple_and_follow_the_rotation(api, bpy):
     api.bind_light(node, g.sun)
 
     fcurves = api.light_drivers(node)
-    assert len(fcurves) == 3 + 1 + 3  # direction xyz, strength, colour rgb
+    # direction xyz, strength, shadows (the lamp's Cast Shadow), colour rgb
+    assert len(fcurves) == 3 + 1 + 1 + 3
     assert all(fc.driver.is_simple_expression and fc.driver.is_valid for fc in fcurves)
     assert api.bound_light(node) == g.sun
     assert node.inputs["Point Light"].default_value == 0.0
