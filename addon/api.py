@@ -207,24 +207,11 @@ def _check_mode(mode):
                          + ", ".join(repr(m) for m in MODES))
 
 
-def _holds(tree, target, seen) -> bool:
-    """Whether ``tree`` is ``target`` or holds it through groups of the
-    user's (not through RM groups)."""
-    if tree == target:
-        return True
-    if tree is None or tree.as_pointer() in seen:
-        return False
-    seen.add(tree.as_pointer())
-    return any(n.bl_idname == "ShaderNodeGroup" and n.node_tree is not None
-               and groups.rm_info(n.node_tree) is None and _holds(n.node_tree, target, seen)
-               for n in tree.nodes)
-
-
 def _materials_of(node) -> list:
     """The materials whose tree holds ``node``, directly or inside groups
     of the user's."""
     return [mat for mat in bpy.data.materials
-            if mat.node_tree is not None and _holds(mat.node_tree, node.id_data, set())]
+            if any(other == node for other in groups.rm_nodes_in(mat.node_tree))]
 
 
 HYBRID_TAG = "rm_hybrid_of"

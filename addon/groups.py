@@ -161,28 +161,31 @@ def group_nodes(tree) -> list:
             if node.bl_idname == "ShaderNodeGroup" and node.node_tree == tree]
 
 
-def _tree_uses_rm(tree, seen) -> bool:
-    if tree is None or tree.as_pointer() in seen:
-        return False
-    seen.add(tree.as_pointer())
-    for node in tree.nodes:
-        if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
-            if rm_info(node.node_tree) is not None or _tree_uses_rm(node.node_tree, seen):
-                return True
-    return False
-
-
-def _tree_backends(tree, seen, out) -> None:
+def rm_nodes_in(tree, seen=None):
+    """The RM group nodes in ``tree`` and in the user's groups inside it, at
+    any depth (not inside RM groups).  ``seen``: the pointers of the trees
+    walked already, shared between calls to walk each tree once."""
+    seen = set() if seen is None else seen
     if tree is None or tree.as_pointer() in seen:
         return
     seen.add(tree.as_pointer())
     for node in tree.nodes:
         if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
-            info = _resolved_info(node.node_tree)
-            if info is not None:
-                out.add(info[1].get(BACKEND_PARAM.name, BACKEND_PARAM.default))
+            if rm_info(node.node_tree) is not None:
+                yield node
             else:
-                _tree_backends(node.node_tree, seen, out)
+                yield from rm_nodes_in(node.node_tree, seen)
+
+
+def _tree_uses_rm(tree, seen) -> bool:
+    return any(True for _node in rm_nodes_in(tree, seen))
+
+
+def _tree_backends(tree, seen, out) -> None:
+    for node in rm_nodes_in(tree, seen):
+        info = _resolved_info(node.node_tree)
+        if info is not None:
+            out.add(info[1].get(BACKEND_PARAM.name, BACKEND_PARAM.default))
 
 
 def _scene_materials(scene) -> set:

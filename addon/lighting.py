@@ -277,29 +277,14 @@ def _wired_mode(node):
     return "path_traced"
 
 
-def _hybrid_in(tree, seen):
-    """The RM nodes in hybrid mode in ``tree`` and in the groups of the
-    user's inside it, at any depth (not inside RM groups)."""
-    if tree is None or tree.as_pointer() in seen:
-        return
-    seen.add(tree.as_pointer())
-    for node in tree.nodes:
-        if node.bl_idname != "ShaderNodeGroup" or node.node_tree is None:
-            continue
-        if groups.rm_info(node.node_tree) is not None:
-            if node.get("rm_mode") == HYBRID:
-                yield node
-        else:
-            yield from _hybrid_in(node.node_tree, seen)
-
-
 def hybrid_nodes():
     """``(material, node)`` of every RM node in hybrid mode, in the
     material's tree or in a group of the user's there (a group used by
     several materials gives its nodes once per material)."""
     for mat in bpy.data.materials:
-        for node in _hybrid_in(mat.node_tree, set()):
-            yield mat, node
+        for node in groups.rm_nodes_in(mat.node_tree):
+            if node.get("rm_mode") == HYBRID:
+                yield mat, node
 
 
 def _users(material, evaluated=None):
