@@ -188,14 +188,40 @@ def _tree_backends(tree, seen, out) -> None:
             out.add(info[1].get(BACKEND_PARAM.name, BACKEND_PARAM.default))
 
 
+def kept_depsgraph(layer):
+    """The depsgraph Blender keeps of the view layer ``layer``, not brought
+    up to date; None where it keeps none (before the layer's first
+    evaluation, after loading a file)."""
+    try:
+        return layer.depsgraph
+    except (AttributeError, RuntimeError):
+        return None
+
+
+def kept_depsgraphs(scene) -> list:
+    """:func:`kept_depsgraph` of each view layer of ``scene`` that has one."""
+    return [g for g in map(kept_depsgraph, scene.view_layers) if g is not None]
+
+
+def materials_as_kept(obj, scenes=None) -> set:
+    """The materials ``obj`` renders with (:func:`rendered_materials`) in
+    the depsgraphs Blender keeps of the view layers of ``scenes`` (its
+    own scenes by default), none evaluated; without one, its slots and its
+    instancing outside Geometry Nodes."""
+    graphs = [g for scene in (obj.users_scene if scenes is None else scenes)
+              for g in kept_depsgraphs(scene)]
+    out = set()
+    for graph in graphs or [None]:
+        out |= rendered_materials(obj, graph)
+    return out
+
+
 def _scene_materials(scene) -> set:
-    """The materials ``scene``'s objects render with (:func:`rendered_materials`,
-    in the depsgraphs Blender keeps of its view layers, none evaluated)."""
-    graphs = [layer.depsgraph for layer in scene.view_layers if layer.depsgraph is not None]
+    """The materials ``scene``'s objects render with, as Blender keeps
+    them (:func:`materials_as_kept`)."""
     out = set()
     for obj in scene.objects:
-        for graph in graphs or [None]:
-            out |= rendered_materials(obj, graph)
+        out |= materials_as_kept(obj, [scene])
     return out
 
 

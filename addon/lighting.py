@@ -306,15 +306,15 @@ def _depsgraphs(scenes, evaluate):
     context = bpy.context
     for scene in scenes:
         for layer in scene.view_layers:
+            here = scene == context.scene and layer == context.view_layer
             try:
-                if scene == context.scene and layer == context.view_layer:
-                    graph = (context.evaluated_depsgraph_get() if evaluate is not False
-                             else layer.depsgraph)
+                if here and evaluate is not False:
+                    graph = context.evaluated_depsgraph_get()
                 elif evaluate is True:
                     with context.temp_override(scene=scene, view_layer=layer):
                         graph = context.evaluated_depsgraph_get()
                 else:
-                    graph = layer.depsgraph
+                    graph = groups.kept_depsgraph(layer)
             except (AttributeError, RuntimeError, TypeError):
                 graph = None
             if graph is not None:
@@ -377,8 +377,9 @@ def also_other_materials(node) -> list:
     also render a material no hybrid node bound to that lamp renders with
     (another slot, or what they instance): light linking excludes a whole
     object, so the bound lamp no longer lights those parts.  Read from
-    slots and instancing outside Geometry Nodes (no depsgraph is
-    evaluated: the sidebar draws it).  Sorted by name."""
+    slots and instancing, and from Geometry Nodes where Blender keeps a
+    depsgraph of the object's scene (none is evaluated: the sidebar draws
+    it; :func:`groups.materials_as_kept`).  Sorted by name."""
     lamps = set(bound_lights(node))
     if not lamps:
         return []
@@ -393,7 +394,7 @@ def also_other_materials(node) -> list:
             continue
         for name in coll.get(ADDED, []):
             obj = coll.objects.get(name)
-            if obj is not None and groups.rendered_materials(obj) - exact.get(lamp, set()):
+            if obj is not None and groups.materials_as_kept(obj) - exact.get(lamp, set()):
                 out.add(obj)
     return sorted(out, key=lambda o: o.name)
 

@@ -206,10 +206,7 @@ def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy):
 def _instance_tree(bpy, name, info, target):
     """A Geometry Nodes tree instancing ``target`` (an object through
     Object Info, a collection through Collection Info) on its points."""
-    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
-    for side in ("INPUT", "OUTPUT"):
-        tree.interface.new_socket("Geometry", in_out=side, socket_type='NodeSocketGeometry')
-    given, out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    tree, given, out = lighting.geometry_nodes_tree(name)
     source = tree.nodes.new(info)
     source.inputs["Collection" if info == "GeometryNodeCollectionInfo" else "Object"] \
         .default_value = target
@@ -411,9 +408,9 @@ def test_geometry_nodes_users_are_excluded_on_save_in_another_scene(
 
 def test_excluded_objects_that_also_use_other_materials_are_named(api, bpy):
     """Light linking excludes a whole object: one with the hybrid material
-    and another one loses the bound lamp on both.  The sidebar names such
-    objects; an object whose other material is hybrid under the same lamp
-    is not one of them."""
+    and another one (in a slot, or given by Geometry Nodes) loses the bound
+    lamp on both.  The sidebar names such objects; an object whose other
+    material is hybrid under the same lamp is not one of them."""
     from addon import lighting as linking
     scene = bpy.data.scenes.new("rm_ll_partly")
     sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_ll_partly_sun")
@@ -425,18 +422,30 @@ def test_excluded_objects_that_also_use_other_materials_are_named(api, bpy):
     _mesh_object(bpy, scene, "rm_ll_partly_one", mat)
     pair = _mesh_object(bpy, scene, "rm_ll_partly_pair", mat)
     pair.data.materials.append(second)
+    # a copy of its geometry joined on by Geometry Nodes with the plain material
+    nodes = _mesh_object(bpy, scene, "rm_ll_partly_nodes", mat)
+    tree, given, out = lighting.geometry_nodes_tree("rm_ll_partly_join")
+    setter, join = (tree.nodes.new(k) for k in ("GeometryNodeSetMaterial",
+                                                "GeometryNodeJoinGeometry"))
+    setter.inputs["Material"].default_value = plain
+    tree.links.new(given.outputs[0], setter.inputs["Geometry"])
+    for geometry in (setter.outputs["Geometry"], given.outputs[0]):
+        tree.links.new(geometry, join.inputs["Geometry"])
+    tree.links.new(join.outputs[0], out.inputs[0])
+    nodes.modifiers.new("join", 'NODES').node_group = tree
     try:
-        api.bind_light(node, sun)
-        assert linking.also_other_materials(node) == [both, pair]
+        api.bind_light(node, sun)  # evaluates the lamp's scene: Blender keeps its depsgraph
+        assert linking.also_other_materials(node) == [both, nodes, pair]
         api.bind_light(other, sun)
-        assert linking.also_other_materials(node) == [both]
-        assert linking.also_other_materials(other) == [both]
+        assert linking.also_other_materials(node) == [both, nodes]
+        assert linking.also_other_materials(other) == [both, nodes]
     finally:
         api.unbind_light(node)
         api.unbind_light(other)
         bpy.data.scenes.remove(scene)
         for m in (mat, plain, second):
             bpy.data.materials.remove(m)
+        bpy.data.node_groups.remove(tree)
 
 
 def test_unbinding_removes_only_what_binding_added(api, bpy):

@@ -149,15 +149,21 @@ def _into_user_group(api, mat, node):
     return inner
 
 
+def geometry_nodes_tree(name):
+    """A new Geometry Nodes tree with one Geometry input and output:
+    ``(tree, its Group Input node, its Group Output node)``."""
+    bpy = common.import_bpy()
+    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    for side in ("INPUT", "OUTPUT"):
+        tree.interface.new_socket("Geometry", in_out=side, socket_type='NodeSocketGeometry')
+    return tree, tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+
+
 def material_by_geometry_nodes(obj, mat):
     """``obj``'s slots emptied; a Geometry Nodes modifier's Set Material
     node gives its geometry ``mat``."""
-    bpy = common.import_bpy()
     obj.data.materials.clear()
-    tree = bpy.data.node_groups.new(mat.name + " set material", "GeometryNodeTree")
-    for side in ("INPUT", "OUTPUT"):
-        tree.interface.new_socket("Geometry", in_out=side, socket_type='NodeSocketGeometry')
-    given, out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
+    tree, given, out = geometry_nodes_tree(mat.name + " set material")
     setter = tree.nodes.new("GeometryNodeSetMaterial")
     setter.inputs["Material"].default_value = mat
     tree.links.new(given.outputs[0], setter.inputs["Geometry"])
