@@ -19,8 +19,9 @@ link state EXCLUDE).  A hybrid node counts in the material's tree and inside
 the user's groups there; an object uses the material through a slot or
 through the geometry its Geometry Nodes modifiers make (a Set Material
 node), and an instancer (a collection instance, particles, Geometry Nodes
-instances) uses the materials of what it instances: Cycles applies an
-instancer's light linking to its instances.  These are read from the
+instances) uses the materials of what it instances: EEVEE applies an
+instancer's light linking to its instances and not the instanced object's
+own (Cycles the instancer's where it has some).  These are read from the
 evaluated depsgraphs of the bound lamps' scenes' view layers.
 What the extension adds is recorded on the collection
 (``rm_added``; ``rm_made`` when it made the collection), so that
@@ -326,10 +327,12 @@ def _evaluated_users(evaluate=True, lamp_scenes=None):
     it without a slot naming it: those whose Geometry Nodes modifiers give
     their geometry the material (a Set Material node), and the instancers
     (a collection instance, vertex or face instancing, particles, Geometry
-    Nodes instances) of geometry carrying it, whose light linking Cycles
-    applies to their instances (measured in 5.2: an Empty instancing an
-    excluded object's collection lit the instance twice until the Empty was
-    excluded too).  Read in every view layer of their scenes that are in
+    Nodes instances) of geometry carrying it, whose light linking EEVEE
+    applies to their instances (measured in 5.2 and 4.5: an Empty
+    instancing an excluded object's collection, the instance lit twice in
+    EEVEE until the Empty was excluded too; Cycles, which takes the
+    instancer's set where it has one and else the instanced object's, lit
+    it once).  Read in every view layer of their scenes that are in
     ``lamp_scenes`` (where the bound lamps are, and so where an exclusion
     can matter; every scene if None); ``evaluate``:
     True, each view layer evaluated; "context", the context's only (a

@@ -74,8 +74,10 @@ def configure_cycles(scene, *, samples=1, max_bounces=0, filter_width=0.01,
     ``max_bounces = 0`` (and every other bounce limit 0) gives direct light
     only; a SUN with angle 0 is then sampled exactly once per pixel, so one
     sample is exact.  ``filter_width = 0.01`` pixel puts the camera ray at the
-    pixel centre.  No denoising, no adaptive sampling, no clamping.
+    pixel centre.  No denoising, no adaptive sampling, no clamping.  Sets
+    the scene's engine to Cycles (a new scene's is EEVEE).
     """
+    scene.render.engine = 'CYCLES'
     c = scene.cycles
     c.device = 'CPU'
     c.shading_system = bool(osl)
