@@ -206,8 +206,9 @@ def material_uses_osl(material):
 
 
 def render_to_exr(scene, path):
-    """Render ``scene`` with Cycles into the EXR file ``path``; returns the
-    wall time of the render call in seconds."""
+    """Render ``scene`` with its engine (:func:`configure_cycles` or
+    :func:`configure_eevee` sets it; a new scene's is EEVEE) into the EXR
+    file ``path``; returns the wall time of the render call in seconds."""
     bpy = import_bpy()
     path = os.path.abspath(path)
     os.makedirs(os.path.dirname(path), exist_ok=True)
