@@ -241,6 +241,28 @@ def unbind_lights(node) -> None:
 
 def bound_lights(node) -> list:
     """The lamp objects the lights of ``node`` follow, in order."""
+    return [lamp for _k, lamp in _bound_by_light(node)]
+
+
+def shadows_not_followed(node) -> list:
+    """The bound lamps whose Cast Shadow light k's Shadows input does not
+    follow: nodes bound before binding drove it keep the value they had
+    (a user may have set it), until bound again."""
+    anim = node.id_data.animation_data
+    driven = {fc.data_path for fc in anim.drivers} if anim else set()
+    out = []
+    for k, lamp in _bound_by_light(node):
+        try:
+            socket = groups.input_socket(node, socket_name("shadows", k))
+        except KeyError:
+            continue
+        if socket.path_from_id("default_value") not in driven:
+            out.append(lamp)
+    return out
+
+
+def _bound_by_light(node) -> list:
+    """``(k, lamp object)`` for each light k of ``node`` that follows a lamp."""
     out = []
     for k in range(1, light_count(node) + 1):
         found = None
@@ -256,7 +278,7 @@ def bound_lights(node) -> list:
             if found is not None:
                 break
         if found is not None:
-            out.append(found)
+            out.append((k, found))
     return out
 
 

@@ -505,6 +505,10 @@ def _draw_node(layout, context, node):
     row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind One")
     if bound:
         box.operator(NODE_OT_rm_unbind_light.bl_idname, icon='X')
+    unfollowed = lighting.shadows_not_followed(node) if mode != "path_traced" else []
+    if unfollowed:
+        box.label(text="Shadows does not follow Cast Shadow of "
+                  + ", ".join(o.name for o in unfollowed) + ": bind again", icon='INFO')
     partly = lighting.also_other_materials(node) if mode == "hybrid" else []
     if partly:
         box.label(text=f"{len(partly)} excluded object(s) also use other materials, "

@@ -690,6 +690,48 @@ def test_sidebar_names_hybrid_objects_that_also_use_other_materials_and_sized_la
     api.unbind_light(node)
 
 
+def test_sidebar_says_when_shadows_does_not_follow_cast_shadow(ui, bpy):
+    """A node bound before binding drove Shadows keeps the value it had
+    (a user may have set it): the sidebar names the lamps of such lights
+    in exact and hybrid mode, and binding again takes it away."""
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    scene = bpy.context.scene
+    mat = new_material(bpy, "rm shadows follow")
+    node = api.add_model(mat, "lambert", mode="exact")
+    lamps = []
+    for name in ("Key", "Fill"):
+        lamps.append(bpy.data.objects.new(name, bpy.data.lights.new(name, "SUN")))
+        scene.collection.objects.link(lamps[-1])
+    api.bind_light(node, *lamps)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = "Shadows does not follow Cast Shadow of Fill: bind again"
+
+    def labels():
+        layout = Recorder()
+        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
+        return [e[1] for e in layout.of("label")]
+
+    try:
+        assert lighting.shadows_not_followed(node) == [] and message not in labels()
+        # as a node bound by an older version: no driver on light 2's Shadows
+        groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
+        socket = groups.input_socket(node, lighting.socket_name("shadows", 2))
+        assert socket.name == "Shadows 2"
+        socket.driver_remove("default_value")
+        assert lighting.shadows_not_followed(node) == [lamps[1]]
+        assert message in labels()
+        api.set_mode(node, "path_traced")  # no exact evaluation: nothing to say
+        assert message not in labels()
+        api.set_mode(node, "exact")
+        api.bind_light(node, *lamps)
+        assert lighting.shadows_not_followed(node) == [] and message not in labels()
+    finally:
+        api.unbind_light(node)
+        bpy.data.batch_remove(lamps)
+        bpy.data.materials.remove(mat)
+
+
 def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     """GGX with correlated Smith is Cycles' own closure up to alpha 1; the
     sidebar reads the node's width and says when Cycles' clamp makes it
