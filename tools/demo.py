@@ -176,6 +176,9 @@ def run(args):
     for placement in ("group", "geometry_nodes", "instance"):
         lamp_checks.append(lighting.hybrid_bound_lamp(api, "cook_torrance", osl=False,
                                                       placement=placement))
+    # EEVEE does not apply an instanced object's own exclusion: its render shows the instancer's
+    lamp_checks.append(lighting.hybrid_bound_lamp(api, "cook_torrance", osl=False, eevee=True,
+                                                  placement="instance"))
     for osl in (True, False):
         lamp_checks.append(lighting.hybrid_lit_scene(api, samples=128, resolution=64, osl=osl))
     for c in lamp_checks:
