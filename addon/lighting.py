@@ -21,7 +21,8 @@ through the geometry its Geometry Nodes modifiers make (a Set Material
 node), and an instancer (a collection instance, particles, Geometry Nodes
 instances) uses the materials of what it instances: EEVEE applies an
 instancer's light linking to its instances and not the instanced object's
-own (Cycles the instancer's where it has some).  These are read from the
+own, and so does Cycles to Geometry Nodes instances (to the others the
+instancer's where it has some).  These are read from the
 evaluated depsgraphs of the bound lamps' scenes' view layers.
 What the extension adds is recorded on the collection
 (``rm_added``; ``rm_made`` when it made the collection), so that
@@ -350,13 +351,13 @@ def _evaluated_users(evaluate=True, lamp_scenes=None):
     their geometry the material (a Set Material node), and the instancers
     (a collection instance, vertex or face instancing, particles, Geometry
     Nodes instances) of geometry carrying it, whose light linking EEVEE
-    applies to their instances (measured in 5.2 and 4.5: an Empty
-    instancing an excluded object's collection, the instance lit twice in
-    EEVEE until the Empty was excluded too; Cycles, which takes the
-    instancer's set where it has one and else the instanced object's, lit
-    it once).  Read in every view layer of their scenes that are in
-    ``lamp_scenes`` (where the bound lamps are, and so where an exclusion
-    can matter; every scene if None); ``evaluate``:
+    applies to their instances (measured in 5.2 and 4.5: an excluded
+    plane instanced by each kind was lit twice in EEVEE until the
+    instancer was excluded too, and in Cycles through Geometry Nodes;
+    Cycles lit the other kinds once, taking the instanced object's set
+    where the instancer has none).  Read in every view layer of their
+    scenes that are in ``lamp_scenes`` (where the bound lamps are, and so
+    where an exclusion can matter; every scene if None); ``evaluate``:
     True, each view layer evaluated; "context", the context's only (a
     render handler); False, none (a panel's draw).  ``unknown``: such
     objects in scenes none of which had a depsgraph to read (their

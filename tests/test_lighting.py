@@ -153,20 +153,53 @@ def test_hybrid_finds_the_material_through_groups_and_geometry_nodes(api, model,
     assert c.passed, c.measured
 
 
+def _instancer(bpy, scene, kind, plane, source):
+    """An object at the origin instancing ``plane`` (unrotated, unscaled)
+    by ``kind``: a collection instance of ``source``, vertex instancing,
+    a particle system's object, or Geometry Nodes' Instance on Points."""
+    if kind == "collection":
+        host = bpy.data.objects.new("rm_ll_instancer", None)
+        host.instance_type, host.instance_collection = 'COLLECTION', source
+        scene.collection.objects.link(host)
+        return host
+    point = bpy.data.meshes.new("rm_ll_instancer_point")
+    point.from_pydata([(0.0, 0.0, 0.0)], [], [])
+    host = bpy.data.objects.new("rm_ll_instancer", point)
+    scene.collection.objects.link(host)
+    if kind == "vertices":
+        host.instance_type = 'VERTS'
+        scene.collection.objects.link(plane)  # a vertex instancer's child is in the scene
+        plane.parent = host
+    elif kind == "particles":
+        host.modifiers.new("particles", 'PARTICLE_SYSTEM')
+        settings = host.particle_systems[0].settings
+        settings.emit_from, settings.count, settings.physics_type = 'VERT', 1, 'NO'
+        settings.frame_start = settings.frame_end = 1
+        settings.lifetime, settings.normal_factor, settings.use_rotations = 1000, 0.0, False
+        settings.render_type, settings.instance_object = 'OBJECT', plane
+        settings.particle_size = 1.0
+    else:
+        host.modifiers.new("instances", 'NODES').node_group = _instance_tree(
+            bpy, "rm_ll_instancer", "GeometryNodeObjectInfo", plane)
+    return host
+
+
 @pytest.mark.parametrize("engine", ["cycles", "eevee"])
-def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy, engine):
-    """A plane with the hybrid material, in a collection outside the view
-    layer, rendered through an Empty that instances the collection.  Cycles
-    takes an instance's light linking from its instancer where the
-    instancer has some, else from the instanced object
-    (``light_linking.cpp``), so there the plane's own exclusion suffices
-    (measured, 5.2 and 4.5); EEVEE did not apply it: with the plane alone
-    excluded it lit the plane twice (0.459 against 0.230, 5.2 and 4.5).
-    Every pixel is the reference under the bound sun: 1e-4 relative in
-    Cycles (float32), 3e-3 of it in EEVEE (half float)."""
+@pytest.mark.parametrize("kind", ["collection", "vertices", "particles", "geometry_nodes"])
+def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy, kind, engine):
+    """A plane with the hybrid material rendered through an instancer (a
+    collection instance of it from outside the view layer, vertex
+    instancing, a particle, a Geometry Nodes instance).  With the plane
+    alone excluded (measured, 5.2 and 4.5) EEVEE lit it twice, 0.459
+    against 0.230, for every kind, and Cycles for the Geometry Nodes
+    instance; Cycles applied the plane's own exclusion to the other kinds
+    (it takes an instance's light linking from its instancer where that has
+    some, else from the instanced object: ``light_linking.cpp``).  Every
+    pixel is the reference under the bound sun: 1e-4 relative in Cycles
+    (float32), 3e-3 of it in EEVEE (half float)."""
     import numpy as np
     from addon import reference
-    scene = common.new_scene(f"rm_ll_instancer_{engine}")
+    scene = common.new_scene(f"rm_ll_instancer_{kind}_{engine}")
     common.configure_cycles(scene, samples=1, max_bounces=0, osl=False)
     if engine == "eevee":
         common.configure_eevee(scene)
@@ -175,27 +208,24 @@ def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy, engine):
     mat = _material("rm_ll_instancer")
     node = api.add_model(mat, "lambert", mode="hybrid")
     source = bpy.data.collections.new("rm_ll_instanced")
-    plane = _mesh_object(bpy, scene, "rm_ll_instanced_plane", mat)
-    plane.data.clear_geometry()
-    plane.data.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [],
-                           [(0, 1, 2, 3)])
+    mesh = bpy.data.meshes.new("rm_ll_instanced_plane")
+    mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(mat)
+    plane = bpy.data.objects.new("rm_ll_instanced_plane", mesh)
     source.objects.link(plane)
-    scene.collection.objects.unlink(plane)
-    empty = bpy.data.objects.new("rm_ll_instancer", None)
-    empty.instance_type = 'COLLECTION'
-    empty.instance_collection = source
-    scene.collection.objects.link(empty)
+    host = _instancer(bpy, scene, kind, plane, source)
     camera = bpy.data.objects.new("rm_ll_camera", bpy.data.cameras.new("rm_ll_camera"))
     camera.location = (0.0, 0.0, 5.0)
     scene.collection.objects.link(camera)
     scene.camera = camera
     light = (0.35, 0.25, 0.9)
     sun = lit.add_lamp(scene, lit.Lamp("SUN", direction=light), "rm_ll_instancer_sun")
+    trees = [m.node_group for m in host.modifiers if m.type == 'NODES']
     try:
         api.bind_light(node, sun)
         coll = sun.light_linking.receiver_collection
-        assert empty.name in coll.objects and plane.name in coll.objects
-        assert _entry(coll, empty).light_linking.link_state == 'EXCLUDE'
+        assert host.name in coll.objects and plane.name in coll.objects
+        assert _entry(coll, host).light_linking.link_state == 'EXCLUDE'
         assert (scene.render.engine == 'CYCLES') == (engine == "cycles")
         img, _seconds = common.render_image(scene)
     finally:
@@ -204,7 +234,7 @@ def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy, engine):
         bpy.data.scenes.remove(scene)
         bpy.data.worlds.remove(world)
         bpy.data.materials.remove(mat)
-        bpy.data.batch_remove([empty, plane, source])
+        bpy.data.batch_remove([host, plane, source, mesh] + trees)
     wi = np.array(light) / np.linalg.norm(light)
     expected = reference.shade("lambert", wi, np.array([0.0, 0.0, 1.0]))
     tolerance = dict(rtol=1e-4, atol=0.0) if engine == "cycles" else \
