@@ -203,13 +203,13 @@ def kept_depsgraphs(scene) -> list:
     return [g for g in map(kept_depsgraph, scene.view_layers) if g is not None]
 
 
-def materials_as_kept(obj, scenes=None) -> set:
+def materials_as_kept(obj, graphs=None) -> set:
     """The materials ``obj`` renders with (:func:`rendered_materials`) in
-    the depsgraphs Blender keeps of the view layers of ``scenes`` (its
-    own scenes by default), none evaluated; without one, its slots and its
-    instancing outside Geometry Nodes."""
-    graphs = [g for scene in (obj.users_scene if scenes is None else scenes)
-              for g in kept_depsgraphs(scene)]
+    the depsgraphs ``graphs`` (by default those Blender keeps of its
+    scenes' view layers, :func:`kept_depsgraphs`), none evaluated; without
+    one, its slots and its instancing outside Geometry Nodes."""
+    if graphs is None:
+        graphs = [g for scene in obj.users_scene for g in kept_depsgraphs(scene)]
     out = set()
     for graph in graphs or [None]:
         out |= rendered_materials(obj, graph)
@@ -219,9 +219,10 @@ def materials_as_kept(obj, scenes=None) -> set:
 def _scene_materials(scene) -> set:
     """The materials ``scene``'s objects render with, as Blender keeps
     them (:func:`materials_as_kept`)."""
+    graphs = kept_depsgraphs(scene)
     out = set()
     for obj in scene.objects:
-        out |= materials_as_kept(obj, [scene])
+        out |= materials_as_kept(obj, graphs)
     return out
 
 

@@ -179,8 +179,8 @@ def _instanced(scene, obj):
     keeps its instanced objects out of the scene.  Cycles applies the
     instanced object's own exclusion where the instancer has none, EEVEE
     does not (measured, 5.2: with only the object excluded, Cycles renders
-    the model within 1.03e-6 relative, EEVEE lights the tiles twice, up to
-    1.0 of the peak off), so in Cycles it is the check's ``excluded``, the
+    the model within 1.03e-6 relative, EEVEE lights the tiles twice, 0.69
+    (Cook-Torrance) and 1.0 (Lambert) of the peak off), so in Cycles it is the check's ``excluded``, the
     instancer in the sun's collection, that tells, in EEVEE the render
     too.  Returns the Empty, the collection and the new object."""
     bpy = common.import_bpy()
