@@ -234,7 +234,8 @@ def test_the_instancer_of_a_hybrid_material_is_excluded_too(api, bpy, kind, engi
         bpy.data.scenes.remove(scene)
         bpy.data.worlds.remove(world)
         bpy.data.materials.remove(mat)
-        bpy.data.batch_remove([host, plane, source, mesh] + trees)
+        made = [host, plane, source, mesh] + trees
+        bpy.data.batch_remove(made + ([host.data] if host.data is not None else []))
     wi = np.array(light) / np.linalg.norm(light)
     expected = reference.shade("lambert", wi, np.array([0.0, 0.0, 1.0]))
     tolerance = dict(rtol=1e-4, atol=0.0) if engine == "cycles" else \
