@@ -492,6 +492,27 @@ def sync_light_linking(*, in_render=False) -> int:
     return changes
 
 
+# Blender's light linking holds at most 63 receiver collections in a scene:
+# with 64 lamps each excluding its own object one object was lit by its lamp
+# all the same, in Cycles (5.2.4, 4.5.15) and EEVEE, and Blender printed
+# "Maximum number of light linking sets (64) exceeded"; with 63 none was.
+RECEIVER_COLLECTIONS_MAX = 63
+
+
+def receiver_collections(scene) -> int:
+    """How many distinct light-linking receiver collections the objects of
+    ``scene`` (lamps, and emitting meshes) name: the extension's, one per
+    lamp bound in hybrid mode, and the user's.  Over
+    :data:`RECEIVER_COLLECTIONS_MAX`, Blender ignores some of them."""
+    found = set()
+    for obj in scene.objects:
+        linking = getattr(obj, "light_linking", None)
+        coll = linking.receiver_collection if linking is not None else None
+        if coll is not None:
+            found.add(coll.name_full)
+    return len(found)
+
+
 def out_of_sync(evaluate=True) -> bool:
     """Whether the light linking differs from what the hybrid nodes need
     (``evaluate``: as for :func:`_evaluated_users`)."""

@@ -513,6 +513,11 @@ def _draw_node(layout, context, node):
     if partly:
         box.label(text=f"{len(partly)} excluded object(s) also use other materials, "
                   "which the bound lamps no longer light", icon='INFO')
+    linked = lighting.receiver_collections(context.scene) if mode == "hybrid" and bound else 0
+    if linked > lighting.RECEIVER_COLLECTIONS_MAX:
+        box.label(text=f"{linked} light linking collections in the scene; Blender applies at "
+                  f"most {lighting.RECEIVER_COLLECTIONS_MAX}: some objects are lit twice",
+                  icon='ERROR')
     if mode == "hybrid" and lighting.out_of_sync(evaluate=False):
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')

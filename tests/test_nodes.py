@@ -732,6 +732,52 @@ def test_sidebar_says_when_shadows_does_not_follow_cast_shadow(ui, bpy):
         bpy.data.materials.remove(mat)
 
 
+def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_blender_applies(
+        ui, bpy):
+    """Blender applies at most 63 receiver collections in a scene (measured:
+    with 64 lamps each excluding its own object, one object was lit by its
+    lamp all the same, Cycles 5.2.4 and 4.5.15 and EEVEE).  The hybrid
+    mode adds one per bound lamp; the sidebar says when the scene holds
+    more, counting the user's too."""
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    scene = bpy.data.scenes.new("rm many sets")
+    mat = new_material(bpy, "rm many sets")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    sun = bpy.data.objects.new("rm sets sun", bpy.data.lights.new("rm sets sun", "SUN"))
+    scene.collection.objects.link(sun)
+    made = [sun]
+    for i in range(lighting.RECEIVER_COLLECTIONS_MAX):  # the user's lamps, each with its own
+        lamp = bpy.data.objects.new(f"rm sets {i}", bpy.data.lights.new(f"rm sets {i}", "POINT"))
+        scene.collection.objects.link(lamp)
+        lamp.light_linking.receiver_collection = bpy.data.collections.new(f"rm sets {i}")
+        made += [lamp, lamp.light_linking.receiver_collection]
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = (f"{lighting.RECEIVER_COLLECTIONS_MAX + 1} light linking collections in the "
+               f"scene; Blender applies at most {lighting.RECEIVER_COLLECTIONS_MAX}: some "
+               "objects are lit twice")
+
+    def labels():
+        layout = Recorder()
+        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
+        return [e[1] for e in layout.of("label")]
+
+    try:
+        assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX
+        assert message not in labels()  # not bound yet
+        api.bind_light(node, sun)  # the hybrid mode's collection for the sun
+        assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX + 1
+        assert message in labels()
+        made[1].light_linking.receiver_collection = made[-1]  # two lamps share one
+        assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX
+        assert message not in labels()
+    finally:
+        api.unbind_light(node)
+        bpy.data.batch_remove(made)
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+
+
 def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     """GGX with correlated Smith is Cycles' own closure up to alpha 1; the
     sidebar reads the node's width and says when Cycles' clamp makes it
