@@ -516,7 +516,7 @@ def _draw_node(layout, context, node):
     linked = lighting.receiver_collections(context.scene) if mode == "hybrid" and bound else 0
     if linked > lighting.RECEIVER_COLLECTIONS_MAX:
         box.label(text=f"{linked} light linking collections in the scene; Blender applies at "
-                  f"most {lighting.RECEIVER_COLLECTIONS_MAX}: some objects are lit twice",
+                  f"most {lighting.RECEIVER_COLLECTIONS_MAX}: some links are ignored",
                   icon='ERROR')
     if mode == "hybrid" and lighting.out_of_sync(evaluate=False):
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')

@@ -755,7 +755,7 @@ def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_ble
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
     message = (f"{lighting.RECEIVER_COLLECTIONS_MAX + 1} light linking collections in the "
                f"scene; Blender applies at most {lighting.RECEIVER_COLLECTIONS_MAX}: some "
-               "objects are lit twice")
+               "links are ignored")
 
     def labels():
         layout = Recorder()
