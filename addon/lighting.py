@@ -381,13 +381,19 @@ def _evaluated_users(evaluate=True, lamp_scenes=None):
     return out, unknown
 
 
+def _hybrid_bindings() -> list:
+    """``(material, node, its bound lamps)`` of every RM node in hybrid mode
+    (:func:`hybrid_nodes`)."""
+    return [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
+
+
 def _exclusions(evaluate=True):
     """``(need, unknown)``: lamp object -> the objects hybrid mode must
     exclude from it (every lamp a hybrid node is bound to, with no object
     yet too), and the objects whose use of a material could not be read
     (:func:`_evaluated_users`)."""
     need = {}
-    hybrid = [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
+    hybrid = _hybrid_bindings()
     lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
                    for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
@@ -410,8 +416,8 @@ def also_other_materials(node) -> list:
     if not lamps:
         return []
     exact = {}
-    for mat, other in hybrid_nodes():
-        for lamp in bound_lights(other):
+    for mat, _other, bound in _hybrid_bindings():
+        for lamp in bound:
             exact.setdefault(lamp, set()).add(mat)
     out = set()
     for lamp in lamps:

@@ -549,6 +549,13 @@ def shader_editor(tree_type="ShaderNodeTree", **extra):
                            **extra)
 
 
+def sidebar_labels(bpy, ctx) -> list:
+    """The texts of the labels the sidebar draws in ``ctx``."""
+    layout = Recorder()
+    bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
+    return [e[1] for e in layout.of("label")]
+
+
 def test_add_menu_lists_every_model_and_preset(ui, bpy):
     appended = [f for f in bpy.types.NODE_MT_shader_node_add_all._dyn_ui_initialize()
                 if getattr(f, "__module__", "") == ui.__name__]
@@ -680,9 +687,7 @@ def test_sidebar_names_hybrid_objects_that_also_use_other_materials_and_sized_la
     sized = "Taken as a direction or point, size ignored: Sun"
     assert sun.data.angle > 0  # a new sun's 0.526 degrees
     for expected in (False, True):
-        layout = Recorder()
-        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
-        labels = [e[1] for e in layout.of("label")]
+        labels = sidebar_labels(bpy, ctx)
         assert (message in labels) == expected
         assert (sized in labels) != expected
         mesh.materials.append(plain)
@@ -707,25 +712,22 @@ def test_sidebar_says_when_shadows_does_not_follow_cast_shadow(ui, bpy):
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
     message = "Shadows does not follow Cast Shadow of Fill: bind again"
 
-    def labels():
-        layout = Recorder()
-        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
-        return [e[1] for e in layout.of("label")]
-
     try:
-        assert lighting.shadows_not_followed(node) == [] and message not in labels()
+        assert lighting.shadows_not_followed(node) == []
+        assert message not in sidebar_labels(bpy, ctx)
         # as a node bound by an older version: no driver on light 2's Shadows
         groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
         socket = groups.input_socket(node, lighting.socket_name("shadows", 2))
         assert socket.name == "Shadows 2"
         socket.driver_remove("default_value")
         assert lighting.shadows_not_followed(node) == [lamps[1]]
-        assert message in labels()
+        assert message in sidebar_labels(bpy, ctx)
         api.set_mode(node, "path_traced")  # no exact evaluation: nothing to say
-        assert message not in labels()
+        assert message not in sidebar_labels(bpy, ctx)
         api.set_mode(node, "exact")
         api.bind_light(node, *lamps)
-        assert lighting.shadows_not_followed(node) == [] and message not in labels()
+        assert lighting.shadows_not_followed(node) == []
+        assert message not in sidebar_labels(bpy, ctx)
     finally:
         api.unbind_light(node)
         bpy.data.batch_remove(lamps)
@@ -757,20 +759,15 @@ def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_ble
                f"scene; Blender applies at most {lighting.RECEIVER_COLLECTIONS_MAX}: some "
                "links are ignored")
 
-    def labels():
-        layout = Recorder()
-        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
-        return [e[1] for e in layout.of("label")]
-
     try:
         assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX
-        assert message not in labels()  # not bound yet
+        assert message not in sidebar_labels(bpy, ctx)  # not bound yet
         api.bind_light(node, sun)  # the hybrid mode's collection for the sun
         assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX + 1
-        assert message in labels()
+        assert message in sidebar_labels(bpy, ctx)
         made[1].light_linking.receiver_collection = made[-1]  # two lamps share one
         assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX
-        assert message not in labels()
+        assert message not in sidebar_labels(bpy, ctx)
     finally:
         api.unbind_light(node)
         bpy.data.batch_remove(made)
