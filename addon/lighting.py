@@ -15,8 +15,10 @@ Hybrid mode: the material renders the bound lamps exactly (the Direct
 output) and everything else with the path-traced BSDF.  So that no lamp
 counts twice, every object using the material is excluded from the bound
 lamps' light by light linking (the lamp's ``light_linking.receiver_collection``,
-link state EXCLUDE).  A hybrid node counts in the material's tree and inside
-the user's groups there; an object uses the material through a slot or
+link state EXCLUDE; lamps bound by the same hybrid materials share one, and a
+lamp bound to none loses the extension's: see :func:`sync_light_linking`).
+A hybrid node counts in the material's tree and inside the user's groups
+there; an object uses the material through a slot or
 through the geometry its Geometry Nodes modifiers make (a Set Material
 node), and an instancer (a collection instance, particles, Geometry Nodes
 instances) uses the materials of what it instances: EEVEE applies an
@@ -35,6 +37,8 @@ Imports bpy.
 """
 
 from __future__ import annotations
+
+import re
 
 import bpy
 
@@ -387,13 +391,14 @@ def _hybrid_bindings() -> list:
     return [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
 
 
-def _exclusions(evaluate=True):
+def _exclusions(evaluate=True, hybrid=None):
     """``(need, unknown)``: lamp object -> the objects hybrid mode must
     exclude from it (every lamp a hybrid node is bound to, with no object
     yet too), and the objects whose use of a material could not be read
-    (:func:`_evaluated_users`)."""
+    (:func:`_evaluated_users`).  ``hybrid``: :func:`_hybrid_bindings`, if
+    the caller has it."""
     need = {}
-    hybrid = _hybrid_bindings()
+    hybrid = _hybrid_bindings() if hybrid is None else hybrid
     lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
                    for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
@@ -435,29 +440,92 @@ ADDED = "rm_added"
 MADE = "rm_made"
 
 
-def _our_collection(lamp, create=True):
-    coll = lamp.light_linking.receiver_collection
-    if coll is None and create:
-        coll = bpy.data.collections.new(f"RM Hybrid: {lamp.name}")
-        coll[MADE] = True
-        coll[ADDED] = []
-        lamp.light_linking.receiver_collection = coll
-    return coll
+def _ours(coll) -> bool:
+    """Whether ``coll`` is a collection the extension made and holds only
+    what it added (a user who adds an entry, or a child collection, makes
+    it theirs too: then it is neither shared out nor taken from a lamp)."""
+    if coll is None or not coll.get(MADE) or coll.children:
+        return False
+    added = set(coll.get(ADDED, []))
+    return all(obj.name in added for obj in coll.objects)
+
+
+def _lamps_of(coll) -> list:
+    return [o for o in bpy.data.objects
+            if o.type == 'LIGHT' and o.light_linking.receiver_collection == coll]
+
+
+def _collection_name(lamps) -> str:
+    names = sorted(lamp.name for lamp in lamps)
+    return f"RM Hybrid: {names[0]}" + (f" +{len(names) - 1}" if len(names) > 1 else "")
+
+
+def _share(need, hybrid) -> int:
+    """Lamps bound by the same hybrid materials exclude the same objects:
+    they get one collection of the extension's, so that a scene stays under
+    Blender's :data:`RECEIVER_COLLECTIONS_MAX` (a node bound to four lamps
+    makes one collection, not four).  A lamp with a collection of the
+    user's keeps it.  Returns the number of changes."""
+    keys = {}
+    for mat, _node, lamps in hybrid:
+        for lamp in lamps:
+            keys.setdefault(lamp, set()).add(mat.name_full)
+    groups_of = {}
+    for lamp in need:
+        coll = lamp.light_linking.receiver_collection
+        if coll is None or _ours(coll):
+            groups_of.setdefault(frozenset(keys.get(lamp, ())), []).append(lamp)
+    changes = 0
+    for key in sorted(groups_of, key=sorted):
+        lamps = sorted(groups_of[key], key=lambda o: o.name)
+        members = set(lamps)
+        # a collection of the group's that no lamp outside it uses, the most used first
+        held = {}
+        for lamp in lamps:
+            coll = lamp.light_linking.receiver_collection
+            if coll is not None and set(_lamps_of(coll)) <= members:
+                held[coll] = held.get(coll, 0) + 1
+        if held:
+            target = min(held, key=lambda c: (-held[c], c.name))
+        else:
+            target = bpy.data.collections.new(_collection_name(lamps))
+            target[MADE] = True
+            target[ADDED] = []
+            changes += 1
+        for lamp in lamps:
+            if lamp.light_linking.receiver_collection != target:
+                lamp.light_linking.receiver_collection = target
+                changes += 1
+        label = _collection_name(lamps)
+        if re.sub(r"\.\d{3,}$", "", target.name) != label:  # Blender's .001 on a clash
+            target.name = label
+    return changes
 
 
 def sync_light_linking(*, in_render=False) -> int:
     """Make the light linking match the hybrid nodes: every object using a
-    hybrid material excluded from each lamp its node is bound to; entries
-    the extension added that are no longer needed removed (and a collection
-    it made, once no hybrid node needs it).  Returns the number of changes.
+    hybrid material excluded from each lamp its node is bound to, lamps
+    bound by the same hybrid materials sharing one collection
+    (:func:`_share`); entries the extension added that are no longer
+    needed removed, a collection it made taken from a lamp that no longer
+    needs it (such as a copy of a bound lamp, which Blender gives the
+    original's collection) and removed once no lamp uses it.  Returns the
+    number of changes.
 
     ``in_render``: called from a render handler, where making or removing a
     datablock crashes Blender (measured): only objects are linked and
-    unlinked then; the collections are made when a lamp is bound."""
+    unlinked, and lamps taken from collections, then; the collections are
+    made and shared when a lamp is bound, and on save."""
     changes = 0
-    need, unknown = _exclusions("context" if in_render else True)
+    hybrid = _hybrid_bindings()
+    need, unknown = _exclusions("context" if in_render else True, hybrid)
+    for lamp in stray_lamps(need):
+        lamp.light_linking.receiver_collection = None
+        changes += 1
+    if not in_render:
+        changes += _share(need, hybrid)
     for lamp, objects in need.items():
-        coll = _our_collection(lamp, create=not in_render)
+        coll = lamp.light_linking.receiver_collection
         if coll is None:
             continue
         added = list(coll.get(ADDED, []))
@@ -472,8 +540,7 @@ def sync_light_linking(*, in_render=False) -> int:
     for coll in list(bpy.data.collections):
         if ADDED not in coll:
             continue
-        lamps = [o for o in bpy.data.objects
-                 if o.type == 'LIGHT' and o.light_linking.receiver_collection == coll]
+        lamps = _lamps_of(coll)
         wanted = {o.name for o in unknown}
         for lamp in lamps:
             wanted |= {o.name for o in need.get(lamp, ())}
@@ -496,6 +563,20 @@ def sync_light_linking(*, in_render=False) -> int:
                 bpy.data.collections.remove(coll)
             changes += 1
     return changes
+
+
+def stray_lamps(need=None) -> list:
+    """Lamps that use a collection of the extension's (:func:`_ours`) but
+    are bound to no hybrid node: a copy of a bound lamp (Shift D, or copy
+    and paste), which Blender gives the original's light linking, so that
+    the hybrid objects get none of its light.  ``need``: from
+    :func:`_exclusions` (read without evaluating anything if None).
+    Sorted by name."""
+    if need is None:
+        need = _exclusions(False)[0]
+    return sorted((o for o in bpy.data.objects
+                   if o.type == 'LIGHT' and o not in need
+                   and _ours(o.light_linking.receiver_collection)), key=lambda o: o.name)
 
 
 # Blender's light linking holds at most 63 receiver collections in a scene:

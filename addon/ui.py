@@ -518,8 +518,14 @@ def _draw_node(layout, context, node):
         box.label(text=f"{linked} light linking collections in the scene; Blender applies at "
                   f"most {lighting.RECEIVER_COLLECTIONS_MAX}: some links are ignored",
                   icon='ERROR')
-    if mode == "hybrid" and lighting.out_of_sync(evaluate=False):
+    missing = mode == "hybrid" and lighting.out_of_sync(evaluate=False)
+    if missing:
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
+    stray = lighting.stray_lamps() if mode == "hybrid" else []
+    if stray:
+        box.label(text="Bound to no node, yet not lighting the hybrid objects (a copy of a "
+                  "bound lamp?): " + ", ".join(o.name for o in stray), icon='ERROR')
+    if missing or stray:
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     if mode != "path_traced" and not native_build.has_raycast() \
             and api.rendering_backend(context.scene)[0] == "native":

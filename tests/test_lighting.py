@@ -26,6 +26,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from addon import catalogue
@@ -551,3 +552,93 @@ def test_objects_that_get_the_material_later_are_excluded_on_render_and_save(
     assert api.sync_light_linking() >= 1
     assert late.name not in coll.objects and g.tiles_object.name in coll.objects
     bpy.data.scenes.remove(g.scene)
+
+
+def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extension):
+    """Blender gives a copy of a lamp (Shift D, copy and paste) the
+    original's light linking: the copy of a bound sun excluded the hybrid
+    tiles and lit them not at all (measured: 1.0 of the model where 2.0 is
+    right).  The copy is bound to nothing: the render handler takes the
+    extension's collection from it, and the tiles get its light through
+    the BSDF output.  Same direction and strength: the Lambert closure is
+    exactly the model, so 2 × the reference within 1e-4 (float32).  Then
+    the node bound to both: they share one collection, each renders the
+    model exactly and neither adds its closure's light (2 × again, where a
+    lamp that did not exclude the tiles would make it 3 ×)."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    linking = importlib.import_module(installed_extension + ".lighting")
+    mat = _material("rm_ll_copy")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
+                                name="rm_ll_copy")
+    g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
+    try:
+        api.bind_light(node, g.sun)
+        copy = g.sun.copy()
+        g.scene.collection.objects.link(copy)
+        assert copy.light_linking.receiver_collection == g.sun.light_linking.receiver_collection
+        assert linking.stray_lamps() == [copy]
+        img = g.render()
+        assert copy.light_linking.receiver_collection is None and linking.stray_lamps() == []
+        assert g.tiles_object.name in g.sun.light_linking.receiver_collection.objects
+        expected = 2.0 * g.reference("lambert")
+        m = g.lit
+        assert m.sum() > 20
+        assert np.allclose(img[..., :3][m], expected[m], rtol=1e-4, atol=0), \
+            float(np.max(np.abs(img[..., :3][m] / expected[m] - 1)))
+        api.bind_light(node, g.sun, copy)
+        assert copy.light_linking.receiver_collection == g.sun.light_linking.receiver_collection
+        img = g.render()
+        assert np.allclose(img[..., :3][m], expected[m], rtol=1e-4, atol=0), \
+            float(np.max(np.abs(img[..., :3][m] / expected[m] - 1)))
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)
+
+
+def test_lamps_bound_by_the_same_materials_share_one_collection(api, bpy):
+    """Blender applies at most 63 light linking collections in a scene: the
+    lamps a node is bound to exclude the same objects and share one
+    collection; a second node bound to two of them splits those off, and
+    unbinding it merges them again (the render of a shared collection:
+    the test above)."""
+    from addon import lighting as linking
+    scene = bpy.data.scenes.new("rm_ll_share")
+    suns = [lit.add_lamp(scene, lit.Lamp("SUN"), f"rm_ll_share_{k}") for k in "abcd"]
+    first, second = _material("rm_ll_share_1"), _material("rm_ll_share_2")
+    one = _mesh_object(bpy, scene, "rm_ll_share_one", first)
+    two = _mesh_object(bpy, scene, "rm_ll_share_two", second)
+    node = api.add_model(first, "lambert", mode="hybrid")
+    other = api.add_model(second, "phong", mode="hybrid")
+
+    def ours():
+        return {c.name for c in bpy.data.collections if c.get(linking.MADE)}
+
+    try:
+        api.bind_light(node, *suns)
+        shared = suns[0].light_linking.receiver_collection
+        assert all(s.light_linking.receiver_collection == shared for s in suns)
+        assert ours() == {shared.name} == {"RM Hybrid: rm_ll_share_a +3"}
+        assert set(shared.objects) == {one} and linking.receiver_collections(scene) == 1
+        api.bind_light(other, *suns[:2])
+        ab, cd = (suns[k].light_linking.receiver_collection for k in (0, 2))
+        assert ab != cd and suns[1].light_linking.receiver_collection == ab
+        assert suns[3].light_linking.receiver_collection == cd
+        assert set(ab.objects) == {one, two} and set(cd.objects) == {one}
+        assert all(_entry(c, o).light_linking.link_state == 'EXCLUDE'
+                   for c in (ab, cd) for o in c.objects)
+        assert linking.receiver_collections(scene) == 2 and not linking.out_of_sync()
+        api.unbind_light(other)
+        kept = suns[0].light_linking.receiver_collection
+        assert all(s.light_linking.receiver_collection == kept for s in suns)
+        assert ours() == {kept.name} and set(kept.objects) == {one}
+        api.unbind_light(node)
+        assert all(s.light_linking.receiver_collection is None for s in suns) and not ours()
+    finally:
+        api.unbind_light(node)
+        api.unbind_light(other)
+        bpy.data.scenes.remove(scene)
+        for m in (first, second):
+            bpy.data.materials.remove(m)

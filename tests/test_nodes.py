@@ -734,20 +734,27 @@ def test_sidebar_says_when_shadows_does_not_follow_cast_shadow(ui, bpy):
         bpy.data.materials.remove(mat)
 
 
+def _hybrid_lambert_under_a_sun(ui, bpy, name):
+    """``(api, scene, material, node, sun)``: a new scene with a sun named
+    ``name + " sun"`` and a material with a hybrid Lambert node."""
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    scene = bpy.data.scenes.new(name)
+    mat = new_material(bpy, name)
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    sun = bpy.data.objects.new(name + " sun", bpy.data.lights.new(name + " sun", "SUN"))
+    scene.collection.objects.link(sun)
+    return api, scene, mat, node, sun
+
+
 def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_blender_applies(
         ui, bpy):
     """Blender applies at most 63 receiver collections in a scene (measured:
     with 64 lamps each excluding its own object, one object was lit by its
     lamp all the same, Cycles 5.2.4 and 4.5.15 and EEVEE).  The hybrid
-    mode adds one per bound lamp; the sidebar says when the scene holds
-    more, counting the user's too."""
-    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    mode adds one per set of lamps bound by the same hybrid materials; the
+    sidebar says when the scene holds more, counting the user's too."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm many sets")
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
-    scene = bpy.data.scenes.new("rm many sets")
-    mat = new_material(bpy, "rm many sets")
-    node = api.add_model(mat, "lambert", mode="hybrid")
-    sun = bpy.data.objects.new("rm sets sun", bpy.data.lights.new("rm sets sun", "SUN"))
-    scene.collection.objects.link(sun)
     made = [sun]
     for i in range(lighting.RECEIVER_COLLECTIONS_MAX):  # the user's lamps, each with its own
         lamp = bpy.data.objects.new(f"rm sets {i}", bpy.data.lights.new(f"rm sets {i}", "POINT"))
@@ -768,6 +775,31 @@ def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_ble
         made[1].light_linking.receiver_collection = made[-1]  # two lamps share one
         assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX
         assert message not in sidebar_labels(bpy, ctx)
+    finally:
+        api.unbind_light(node)
+        bpy.data.batch_remove(made)
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+
+
+def test_sidebar_names_a_copy_of_a_bound_lamp_that_excludes_the_hybrid_objects(ui, bpy):
+    """A copy of a bound lamp keeps the original's light linking and so does
+    not light the hybrid objects; the sidebar names it until the light
+    linking is brought up to date (the render and save handlers do that
+    too: tests/test_lighting.py)."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm stray")
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = ("Bound to no node, yet not lighting the hybrid objects (a copy of a bound "
+               "lamp?): rm stray sun.001")
+    made = [sun]
+    try:
+        api.bind_light(node, sun)
+        made.append(sun.copy())
+        scene.collection.objects.link(made[-1])
+        assert message in sidebar_labels(bpy, ctx)
+        assert api.sync_light_linking() == 1
+        assert message not in sidebar_labels(bpy, ctx)
+        assert made[-1].light_linking.receiver_collection is None
     finally:
         api.unbind_light(node)
         bpy.data.batch_remove(made)
