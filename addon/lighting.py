@@ -579,6 +579,22 @@ def stray_lamps(need=None) -> list:
                    and _ours(o.light_linking.receiver_collection)), key=lambda o: o.name)
 
 
+def unbound_sharers(need=None) -> list:
+    """Lamps bound to no hybrid node that use a collection of the user's to
+    which the extension added exclusions (the user gave a bound lamp and
+    these one collection): they do not light the hybrid objects either,
+    and since the collection is the user's the extension leaves it.
+    ``need`` as for :func:`stray_lamps`.  Sorted by name."""
+    if need is None:
+        need = _exclusions(False)[0]
+    out = []
+    for obj in bpy.data.objects:
+        coll = obj.light_linking.receiver_collection if obj.type == 'LIGHT' else None
+        if coll is not None and obj not in need and not _ours(coll) and coll.get(ADDED):
+            out.append(obj)
+    return sorted(out, key=lambda o: o.name)
+
+
 # Blender's light linking holds at most 63 receiver collections in a scene:
 # with 64 lamps each excluding its own object one object was lit by its lamp
 # all the same, in Cycles (5.2.4, 4.5.15) and EEVEE, and Blender printed

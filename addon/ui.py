@@ -527,6 +527,10 @@ def _draw_node(layout, context, node):
                   "bound lamp?): " + ", ".join(o.name for o in stray), icon='ERROR')
     if missing or stray:
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
+    sharers = lighting.unbound_sharers() if mode == "hybrid" else []
+    if sharers:
+        box.label(text="Not lighting the hybrid objects, sharing a bound lamp's light linking "
+                  "collection: " + ", ".join(o.name for o in sharers), icon='INFO')
     if mode != "path_traced" and not native_build.has_raycast() \
             and api.rendering_backend(context.scene)[0] == "native":
         box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')

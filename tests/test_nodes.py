@@ -807,6 +807,38 @@ def test_sidebar_names_a_copy_of_a_bound_lamp_that_excludes_the_hybrid_objects(u
         bpy.data.materials.remove(mat)
 
 
+def test_sidebar_names_an_unbound_lamp_sharing_a_users_collection_with_a_bound_one(ui, bpy):
+    """The user gave two lamps one light linking collection; binding one of
+    them adds the hybrid exclusions to it, so the other does not light the
+    hybrid objects either.  The collection is the user's and stays as it
+    is; the sidebar names the other lamp while the exclusions are there."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm sharer")
+    other = bpy.data.objects.new("rm sharer 2", bpy.data.lights.new("rm sharer 2", "POINT"))
+    scene.collection.objects.link(other)
+    users = bpy.data.collections.new("rm sharer's")
+    sun.light_linking.receiver_collection = other.light_linking.receiver_collection = users
+    obj = bpy.data.objects.new("rm sharer obj", bpy.data.meshes.new("rm sharer obj"))
+    obj.data.materials.append(mat)
+    scene.collection.objects.link(obj)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = ("Not lighting the hybrid objects, sharing a bound lamp's light linking "
+               "collection: rm sharer 2")
+    try:
+        assert message not in sidebar_labels(bpy, ctx)
+        api.bind_light(node, sun)
+        assert obj.name in users.objects
+        assert sun.light_linking.receiver_collection == users
+        assert other.light_linking.receiver_collection == users
+        assert message in sidebar_labels(bpy, ctx)
+        api.unbind_light(node)
+        assert message not in sidebar_labels(bpy, ctx)
+    finally:
+        api.unbind_light(node)
+        bpy.data.batch_remove([sun, other, obj, users])
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+
+
 def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     """GGX with correlated Smith is Cycles' own closure up to alpha 1; the
     sidebar reads the node's width and says when Cycles' clamp makes it
