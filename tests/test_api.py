@@ -430,3 +430,26 @@ def test_add_model_compiles_osl_in_a_plain_bpy_process(tmp_path):
     lines = out.stdout.splitlines()
     assert "oslquery importable before" not in lines  # else this tests nothing
     assert [x for x in lines if x.startswith("scripts ")] == ["scripts True"], out.stdout
+
+
+def test_the_readmes_scripting_example_runs_as_written(bpy, installed_extension):
+    """The README's scripting example against the installed extension (the
+    tests install it in their own repository, so its module path differs
+    from the README's default one only in the repository's name)."""
+    from tests.test_docs import readme_python_blocks
+    block = readme_python_blocks()[1]
+    default = "bl_ext.user_default.reflection_models"
+    assert default in block
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    bpy.context.scene.collection.objects.link(sun)
+    names = {}
+    try:
+        exec(compile(block.replace(default, installed_extension), "README.md", "exec"), names)
+        api = names["api"]
+        node = names["node"]
+        assert api.bound_lights(node) == [sun] and api.get_mode(node) == "exact"
+        assert bpy.context.scene.cycles.shading_system
+        assert api.rendering_backend(bpy.context.scene)[0] == "osl"
+    finally:
+        bpy.data.materials.remove(names["mat"])
+        bpy.data.objects.remove(sun)

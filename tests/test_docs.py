@@ -2,8 +2,10 @@
 """The generated documentation: the README's model table and one page per
 model gathering its faces; stale pages and missing faces fail."""
 
+import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from addon import catalogue
@@ -50,3 +52,21 @@ def test_the_docs_quote_the_fitters_words():
     from fitting import assemble, reparam
     assert docs.JOINT == assemble.JOINT and docs.DERIVED == reparam.DERIVED
     assert docs.MOVED == assemble.MOVED
+
+
+def readme_python_blocks() -> list:
+    """The README's ```python blocks, in order."""
+    text = docs.README.read_text(encoding="utf-8")
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
+
+
+def test_the_readmes_reference_example_runs_as_written():
+    """The README's first example, run as a user would paste it: the values
+    it computes are the reference's, finite and positive (a conductor's
+    highlight and Phong's lobe near the mirror direction)."""
+    block = readme_python_blocks()[0]
+    assert "from addon import reference" in block
+    names = {}
+    exec(compile(block, "README.md", "exec"), names)
+    assert names["rgb"].shape == (3,) and np.all(np.isfinite(names["rgb"]))
+    assert np.all(names["rgb"] > 0) and np.all(names["f_r"] > 0)
