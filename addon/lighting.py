@@ -595,6 +595,26 @@ def unbound_sharers(need=None) -> list:
     return sorted(out, key=lambda o: o.name)
 
 
+def override_keeps_light_linking() -> bool:
+    """Whether a library override of a lamp can keep its light linking:
+    Blender 5.2 marks ``receiver_collection`` overridable, 4.5 does not
+    (measured in 5.2.4 and 4.5.15: the overridden lamp's collection was
+    saved in 5.2.4 and gone on reload in 4.5.15)."""
+    return bool(bpy.types.ObjectLightLinking.bl_rna.properties["receiver_collection"]
+                .is_overridable)
+
+
+def linked_lamps(node) -> list:
+    """``node``'s bound lamps whose hybrid light linking is not saved: a
+    lamp linked from a library file, which Blender reads back from its
+    library when the file is opened (the linking it was given is then
+    gone), and a library override of one where the override cannot keep
+    it (:func:`override_keeps_light_linking`)."""
+    keeps = override_keeps_light_linking()
+    return [lamp for lamp in bound_lights(node) if lamp.library is not None
+            or (lamp.override_library is not None and not keeps)]
+
+
 # Blender's light linking holds at most 63 receiver collections in a scene:
 # with 64 lamps each excluding its own object one object was lit by its lamp
 # all the same, in Cycles (5.2.4, 4.5.15) and EEVEE, and Blender printed

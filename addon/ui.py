@@ -527,6 +527,12 @@ def _draw_node(layout, context, node):
                   "bound lamp?): " + ", ".join(o.name for o in stray), icon='ERROR')
     if missing or stray:
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
+    from_library = lighting.linked_lamps(node) if mode == "hybrid" else []
+    if from_library:
+        remedy = ("make a library override" if lighting.override_keeps_light_linking()
+                  else "make it local")
+        box.label(text=f"Linked from a library, so their light linking is not saved ({remedy}): "
+                  + ", ".join(o.name for o in from_library), icon='ERROR')
     sharers = lighting.unbound_sharers() if mode == "hybrid" else []
     if sharers:
         box.label(text="Not lighting the hybrid objects, sharing a bound lamp's light linking "

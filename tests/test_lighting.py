@@ -642,3 +642,61 @@ def test_lamps_bound_by_the_same_materials_share_one_collection(api, bpy):
         bpy.data.scenes.remove(scene)
         for m in (first, second):
             bpy.data.materials.remove(m)
+
+
+def test_a_lamp_linked_from_a_library_keeps_the_hybrid_light_linking_only_overridden(
+        api, bpy, tmp_path):
+    """Blender reads a linked lamp back from its library when a file is
+    opened: the light linking the hybrid mode gave it is gone, and a fresh
+    process (no extension) renders the tiles lit twice, the model plus the
+    Lambert closure's equal share (2 × the reference).  Bound to a library
+    override of the lamp, the linking is saved where Blender lets an
+    override keep it (5.2: the model) and lost where not (4.5: 2 × again);
+    bound to the lamp made local, it is saved.  The extension's
+    ``linked_lamps`` says which, as the sidebar does (tests/test_nodes.py).
+    1e-4 relative: float32, and the Lambert closure under a sun is the
+    model exactly."""
+    from addon import lighting as linking
+    from verification.harness import session as bpy_env
+    mat = _material("rm_ll_library")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
+                                name="rm_ll_library")
+    g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
+    name, library = g.sun.name, tmp_path / "lamps.blend"
+    bpy.data.libraries.write(str(library), {g.sun})
+    bpy.data.objects.remove(g.sun)
+    with bpy.data.libraries.load(str(library), link=True) as (_src, dst):
+        dst.objects = [name]
+    linked = dst.objects[0]
+    g.scene.collection.objects.link(linked)
+    m = g.lit
+    reference = g.reference("lambert")
+
+    def times_the_model(lamp, tag):
+        """Bound to ``lamp``: the fresh process's render over the model's."""
+        api.bind_light(node, lamp)
+        assert lamp.light_linking.receiver_collection is not None
+        path = tmp_path / f"{tag}.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+        out = tmp_path / f"{tag}.exr"
+        bpy_env.render_in_fresh_process(path, out, scene=g.scene.name)
+        ratio = common.read_exr(out)[..., :3][m] / reference[m]
+        value = float(np.median(ratio))
+        assert np.allclose(ratio, value, rtol=1e-4, atol=0), (ratio.min(), ratio.max())
+        return round(value, 4), linking.linked_lamps(node) == [lamp]
+
+    try:
+        assert m.sum() > 20
+        assert times_the_model(linked, "linked") == (2.0, True)
+        override = linked.override_create(remap_local_usages=True)
+        keeps = linking.override_keeps_light_linking()
+        assert times_the_model(override, "override") == ((1.0, False) if keeps else (2.0, True))
+        assert times_the_model(override.make_local(), "local") == (1.0, False)
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)
+        for obj in [o for o in bpy.data.objects if o.name == name]:
+            bpy.data.objects.remove(obj)
+        bpy.data.libraries.remove(bpy.data.libraries[library.name])

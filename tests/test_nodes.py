@@ -839,6 +839,45 @@ def test_sidebar_names_an_unbound_lamp_sharing_a_users_collection_with_a_bound_o
         bpy.data.materials.remove(mat)
 
 
+def test_sidebar_says_a_lamp_linked_from_a_library_keeps_no_light_linking(ui, bpy, tmp_path):
+    """A lamp linked from a library file takes the hybrid mode's light
+    linking for the session only (rendered in a fresh process:
+    tests/test_lighting.py); a library override keeps it where Blender
+    lets it (5.2, not 4.5), else making the lamp local does.  The sidebar
+    names the bound lamps whose linking will not be saved."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm library")
+    library = tmp_path / "lamps.blend"
+    bpy.data.libraries.write(str(library), {sun})
+    bpy.data.objects.remove(sun)
+    with bpy.data.libraries.load(str(library), link=True) as (_src, dst):
+        dst.objects = ["rm library sun"]
+    linked = dst.objects[0]
+    scene.collection.objects.link(linked)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    keeps = lighting.override_keeps_light_linking()
+    assert keeps == (bpy.app.version >= (5, 2, 0))  # measured in 5.2.4 and 4.5.15
+    remedy = "make a library override" if keeps else "make it local"
+    message = (f"Linked from a library, so their light linking is not saved ({remedy}): "
+               "rm library sun")
+    try:
+        api.bind_light(node, linked)
+        assert linked.light_linking.receiver_collection is not None  # for now
+        assert message in sidebar_labels(bpy, ctx)
+        override = linked.override_create(remap_local_usages=True)
+        api.bind_light(node, override)
+        assert (message in sidebar_labels(bpy, ctx)) == (not keeps)
+        api.bind_light(node, override.make_local())
+        assert message not in sidebar_labels(bpy, ctx)
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+        for obj in [o for o in bpy.data.objects if o.name == "rm library sun"]:
+            bpy.data.objects.remove(obj)
+        bpy.data.libraries.remove(bpy.data.libraries[library.name])
+
+
 def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     """GGX with correlated Smith is Cycles' own closure up to alpha 1; the
     sidebar reads the node's width and says when Cycles' clamp makes it
