@@ -613,9 +613,11 @@ def test_lamps_bound_by_the_same_materials_share_one_collection(api, bpy):
     node = api.add_model(first, "lambert", mode="hybrid")
     other = api.add_model(second, "phong", mode="hybrid")
 
-    def ours():
-        return {c.name for c in bpy.data.collections if c.get(linking.MADE)}
+    def ours():  # the extension's collections this test made (others' may linger)
+        return {c.name for c in bpy.data.collections if c.get(linking.MADE)} - before
 
+    before = set()
+    before = ours()
     try:
         api.bind_light(node, *suns)
         shared = suns[0].light_linking.receiver_collection
