@@ -27,7 +27,8 @@ own, and so does Cycles to Geometry Nodes instances (to the others the
 instancer's where it has some).  These are read from the
 evaluated depsgraphs of the bound lamps' scenes' view layers.
 What the extension adds is recorded on the collection
-(``rm_added``; ``rm_made`` when it made the collection), so that
+(``rm_added``, the objects themselves, not their names: :func:`added_objects`;
+``rm_made`` when it made the collection), so that
 :func:`sync_light_linking` adds objects that got the material later, drops
 those that lost it, and unbinding removes exactly what binding added and
 nothing a user linked by hand.  The links are ordinary file data: a file
@@ -429,9 +430,8 @@ def also_other_materials(node) -> list:
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             continue
-        for name in coll.get(ADDED, []):
-            obj = coll.objects.get(name)
-            if obj is not None and groups.materials_as_kept(obj) - exact.get(lamp, set()):
+        for obj in added_objects(coll):
+            if groups.materials_as_kept(obj) - exact.get(lamp, set()):
                 out.add(obj)
     return sorted(out, key=lambda o: o.name)
 
@@ -440,14 +440,29 @@ ADDED = "rm_added"
 MADE = "rm_made"
 
 
+def added_objects(coll) -> list:
+    """The members of ``coll`` the extension added, from its record
+    (``rm_added``): the objects themselves, so that the record follows an
+    object renamed afterwards (an object deleted since reads as None and is
+    left out).  Older files recorded names: those are read by name, and the
+    record is written back as objects at the next update."""
+    members = {obj.as_pointer(): obj for obj in coll.objects}
+    out = []
+    for item in coll.get(ADDED, []):
+        obj = coll.objects.get(item) if isinstance(item, str) else item
+        if obj is not None and obj.as_pointer() in members:
+            out.append(members[obj.as_pointer()])
+    return out
+
+
 def _ours(coll) -> bool:
     """Whether ``coll`` is a collection the extension made and holds only
     what it added (a user who adds an entry, or a child collection, makes
     it theirs too: then it is neither shared out nor taken from a lamp)."""
     if coll is None or not coll.get(MADE) or coll.children:
         return False
-    added = set(coll.get(ADDED, []))
-    return all(obj.name in added for obj in coll.objects)
+    added = {obj.as_pointer() for obj in added_objects(coll)}
+    return all(obj.as_pointer() in added for obj in coll.objects)
 
 
 def _lamps_of(coll) -> list:
@@ -528,12 +543,12 @@ def sync_light_linking(*, in_render=False) -> int:
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             continue
-        added = list(coll.get(ADDED, []))
+        added = added_objects(coll)
         for obj in sorted(objects, key=lambda o: o.name):
-            if obj.name not in coll.objects:
+            if _entry(coll, obj) is None:
                 coll.objects.link(obj)
                 _entry(coll, obj).light_linking.link_state = 'EXCLUDE'
-                added.append(obj.name)
+                added.append(obj)
                 changes += 1
         coll[ADDED] = added
     # what is no longer needed: only what the extension added
@@ -541,20 +556,18 @@ def sync_light_linking(*, in_render=False) -> int:
         if ADDED not in coll:
             continue
         lamps = _lamps_of(coll)
-        wanted = {o.name for o in unknown}
+        wanted = set(unknown)
         for lamp in lamps:
-            wanted |= {o.name for o in need.get(lamp, ())}
+            wanted |= need.get(lamp, set())
         keep = []
-        for name in list(coll[ADDED]):
-            obj = coll.objects.get(name)
-            if obj is None:
-                continue
-            if name in wanted:
-                keep.append(name)
+        for obj in added_objects(coll):
+            if obj in wanted:
+                keep.append(obj)
             else:
                 coll.objects.unlink(obj)
                 changes += 1
-        coll[ADDED] = keep
+        if keep != list(coll[ADDED]):
+            coll[ADDED] = keep
         still_bound = any(lamp in need for lamp in lamps)
         if not keep and coll.get(MADE) and not still_bound and not in_render:
             for lamp in lamps:
@@ -590,7 +603,7 @@ def unbound_sharers(need=None) -> list:
     out = []
     for obj in bpy.data.objects:
         coll = obj.light_linking.receiver_collection if obj.type == 'LIGHT' else None
-        if coll is not None and obj not in need and not _ours(coll) and coll.get(ADDED):
+        if coll is not None and obj not in need and not _ours(coll) and added_objects(coll):
             out.append(obj)
     return sorted(out, key=lambda o: o.name)
 

@@ -702,3 +702,46 @@ def test_a_lamp_linked_from_a_library_keeps_the_hybrid_light_linking_only_overri
         for obj in [o for o in bpy.data.objects if o.name == name]:
             bpy.data.objects.remove(obj)
         bpy.data.libraries.remove(bpy.data.libraries[library.name])
+
+
+def test_the_record_of_added_exclusions_follows_a_renamed_object(api, bpy):
+    """What binding added is recorded by object, not by name: an object
+    renamed after binding is still the extension's to remove (it was left
+    excluded in the user's collection when the record held names, so the
+    lamp no longer lit it at all).  A record of names, as older files have
+    it, is read by name and written back as objects."""
+    from addon import lighting as linking
+    scene = bpy.data.scenes.new("rm_ll_rename")
+    sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_ll_rename_sun")
+    users = bpy.data.collections.new("rm_ll_rename users")
+    sun.light_linking.receiver_collection = users
+    mat = _material("rm_ll_rename")
+    plain = _material("rm_ll_rename_plain")
+    obj = _mesh_object(bpy, scene, "rm_ll_rename_obj", mat)
+    other = _mesh_object(bpy, scene, "rm_ll_rename_other", mat)
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    try:
+        api.bind_light(node, sun)
+        assert set(users.objects) == {obj, other}
+        obj.name = "rm_ll_renamed"
+        assert set(linking.added_objects(users)) == {obj, other}
+        obj.data.materials[0] = plain  # no longer the hybrid material
+        assert api.sync_light_linking() == 1
+        assert set(users.objects) == {other}
+        obj.data.materials[0] = mat
+        api.sync_light_linking()
+        users[linking.ADDED] = [o.name for o in users.objects]  # as an older file has it
+        assert set(linking.added_objects(users)) == {obj, other}
+        other.name = "rm_ll_renamed_other"  # a name record loses this one ...
+        assert set(linking.added_objects(users)) == {obj}
+        other.name = "rm_ll_rename_other"
+        api.sync_light_linking()  # ... so the update writes the record back as objects
+        assert list(users[linking.ADDED]) == [obj, other] or \
+            list(users[linking.ADDED]) == [other, obj]
+        other.name = "rm_ll_renamed_other"
+        api.unbind_light(node)
+        assert not users.objects and sun.light_linking.receiver_collection == users
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(scene)
+        bpy.data.batch_remove([mat, plain, users])
