@@ -317,10 +317,15 @@ def hybrid_nodes():
 
 
 def _users(material, evaluated=None):
-    """Objects with ``material`` in a slot, and those ``evaluated`` (from
-    :func:`_evaluated_users`) gives for it."""
+    """Objects in a scene with ``material`` in a slot, and those
+    ``evaluated`` (from :func:`_evaluated_users`) gives for it.  An object
+    in no scene renders only as an instance, and then its instancer is
+    excluded (the engines apply the instancer's light linking); one deleted
+    from its scene stays in the data while the extension's collection holds
+    it, and would be held for ever."""
     users = {obj for obj in bpy.data.objects
-             if any(slot.material == material for slot in getattr(obj, "material_slots", ()))}
+             if any(slot.material == material for slot in getattr(obj, "material_slots", ()))
+             and obj.users_scene}
     return users | (evaluated or {}).get(material, set())
 
 
