@@ -588,10 +588,10 @@ def stray_lamps(need=None) -> list:
     are bound to no hybrid node: a copy of a bound lamp (Shift D, or copy
     and paste), which Blender gives the original's light linking, so that
     the hybrid objects get none of its light.  ``need``: from
-    :func:`_exclusions` (read without evaluating anything if None).
+    :func:`needed_exclusions` (read without evaluating anything if None).
     Sorted by name."""
     if need is None:
-        need = _exclusions(False)[0]
+        need = needed_exclusions(False)
     return sorted((o for o in bpy.data.objects
                    if o.type == 'LIGHT' and o not in need
                    and _ours(o.light_linking.receiver_collection)), key=lambda o: o.name)
@@ -604,7 +604,7 @@ def unbound_sharers(need=None) -> list:
     and since the collection is the user's the extension leaves it.
     ``need`` as for :func:`stray_lamps`.  Sorted by name."""
     if need is None:
-        need = _exclusions(False)[0]
+        need = needed_exclusions(False)
     out = []
     for obj in bpy.data.objects:
         coll = obj.light_linking.receiver_collection if obj.type == 'LIGHT' else None
@@ -654,10 +654,20 @@ def receiver_collections(scene) -> int:
     return len(found)
 
 
-def out_of_sync(evaluate=True) -> bool:
+def needed_exclusions(evaluate=True) -> dict:
+    """Lamp object -> the objects hybrid mode excludes from it (``evaluate``:
+    as for :func:`_evaluated_users`), for :func:`out_of_sync`,
+    :func:`stray_lamps` and :func:`unbound_sharers` to share (the sidebar
+    asks all three)."""
+    return _exclusions(evaluate)[0]
+
+
+def out_of_sync(evaluate=True, need=None) -> bool:
     """Whether the light linking differs from what the hybrid nodes need
-    (``evaluate``: as for :func:`_evaluated_users`)."""
-    for lamp, objects in _exclusions(evaluate)[0].items():
+    (``evaluate``: as for :func:`_evaluated_users`; ``need``: from
+    :func:`needed_exclusions`, read here if None)."""
+    need = needed_exclusions(evaluate) if need is None else need
+    for lamp, objects in need.items():
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             return True

@@ -509,37 +509,46 @@ def _draw_node(layout, context, node):
     if unfollowed:
         box.label(text="Shadows does not follow Cast Shadow of "
                   + ", ".join(o.name for o in unfollowed) + ": bind again", icon='INFO')
-    partly = lighting.also_other_materials(node) if mode == "hybrid" else []
+    if mode == "hybrid":
+        _draw_hybrid_linking(box, context.scene, node, bound)
+    if mode != "path_traced" and not native_build.has_raycast() \
+            and api.rendering_backend(context.scene)[0] == "native":
+        box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
+
+
+def _draw_hybrid_linking(box, scene, node, bound):
+    """The sidebar's labels on a hybrid node's light linking: what Blender's
+    light linking cannot do as the mode wants, and what is out of date
+    (with the button that brings it up to date)."""
+    partly = lighting.also_other_materials(node)
     if partly:
         box.label(text=f"{len(partly)} excluded object(s) also use other materials, "
                   "which the bound lamps no longer light", icon='INFO')
-    linked = lighting.receiver_collections(context.scene) if mode == "hybrid" and bound else 0
+    linked = lighting.receiver_collections(scene) if bound else 0
     if linked > lighting.RECEIVER_COLLECTIONS_MAX:
         box.label(text=f"{linked} light linking collections in the scene; Blender applies at "
                   f"most {lighting.RECEIVER_COLLECTIONS_MAX}: some links are ignored",
                   icon='ERROR')
-    missing = mode == "hybrid" and lighting.out_of_sync(evaluate=False)
+    need = lighting.needed_exclusions(evaluate=False)
+    missing = lighting.out_of_sync(evaluate=False, need=need)
     if missing:
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
-    stray = lighting.stray_lamps() if mode == "hybrid" else []
+    stray = lighting.stray_lamps(need)
     if stray:
         box.label(text="Bound to no node, yet not lighting the hybrid objects (a copy of a "
                   "bound lamp?): " + ", ".join(o.name for o in stray), icon='ERROR')
     if missing or stray:
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
-    from_library = lighting.linked_lamps(node) if mode == "hybrid" else []
+    from_library = lighting.linked_lamps(node)
     if from_library:
         remedy = ("make a library override" if lighting.override_keeps_light_linking()
                   else "make it local")
         box.label(text=f"Linked from a library, so their light linking is not saved ({remedy}): "
                   + ", ".join(o.name for o in from_library), icon='ERROR')
-    sharers = lighting.unbound_sharers() if mode == "hybrid" else []
+    sharers = lighting.unbound_sharers(need)
     if sharers:
         box.label(text="Not lighting the hybrid objects, sharing a bound lamp's light linking "
                   "collection: " + ", ".join(o.name for o in sharers), icon='INFO')
-    if mode != "path_traced" and not native_build.has_raycast() \
-            and api.rendering_backend(context.scene)[0] == "native":
-        box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
 
 
 _STATUS_TEXT = {
