@@ -601,6 +601,16 @@ def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extensi
         bpy.data.materials.remove(mat)
 
 
+def test_the_demos_check_of_a_copied_lamp(api):
+    """``make demo``'s check (verification/suites/lighting.py): the copy
+    brought up to date by ``sync_light_linking`` rather than by the render
+    handler, then bound with the original; native nodes."""
+    c = lighting.hybrid_copied_lamp(api, osl=False, resolution=32)
+    print(f"\n{c.name}: {c.measured}")
+    assert c.values["shared"] and c.values["n_lit"] > 20
+    assert c.passed, c.measured
+
+
 def test_lamps_bound_by_the_same_materials_share_one_collection(api, bpy):
     """Blender applies at most 63 light linking collections in a scene: the
     lamps a node is bound to exclude the same objects and share one

@@ -179,6 +179,10 @@ def run(args):
     # EEVEE does not apply an instanced object's own exclusion: its render shows the instancer's
     lamp_checks.append(lighting.hybrid_bound_lamp(api, "cook_torrance", osl=False, eevee=True,
                                                   placement="instance"))
+    # a copy of a bound lamp gets the original's light linking from Blender: the extension
+    # takes it away, and lamps bound together share one collection
+    for eevee in (False, True):
+        lamp_checks.append(lighting.hybrid_copied_lamp(api, osl=False, eevee=eevee))
     for osl in (True, False):
         lamp_checks.append(lighting.hybrid_lit_scene(api, samples=128, resolution=64, osl=osl))
     for c in lamp_checks:

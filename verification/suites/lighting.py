@@ -180,9 +180,11 @@ def _instanced(scene, obj):
     instanced object's own exclusion where the instancer has none, EEVEE
     does not (measured, 5.2: with only the object excluded, Cycles renders
     the model within 1.03e-6 relative, EEVEE lights the tiles twice, 0.69
-    (Cook-Torrance) and 1.0 (Lambert) of the peak off), so in Cycles it is the check's ``excluded``, the
-    instancer in the sun's collection, that tells, in EEVEE the render
-    too.  Returns the Empty, the collection and the new object."""
+    (Cook-Torrance) and 1.0 (Lambert) of the peak off).  The extension
+    excludes the instancer and not the new object, which is in no scene
+    (it renders only as the instance), so the render tells in both
+    engines whether the instancer is excluded, as does the check's
+    ``excluded``.  Returns the Empty, the collection and the new object.
     bpy = common.import_bpy()
     source = bpy.data.collections.new(obj.name + " source")
     copy = bpy.data.objects.new(obj.name + " instanced", obj.data)
@@ -262,6 +264,56 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
                  measured=f"max {label} {worst:.2e}",
                  expected=within + ": the bound lamp exactly, no closure response to it",
                  group="hybrid", tolerance=reason, values=values,
+                 seconds=time.perf_counter() - t0)
+
+
+def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
+    """A copy of the bound sun (Blender gives it the original's light
+    linking), then the node bound to both.  Lambert, whose closure is the
+    model: unbound, the copy lights the tiles through the BSDF output;
+    bound, each sun renders the model and neither adds its closure's
+    response.  Both renders are 2 x the reference (1e-4 relative; EEVEE
+    3e-3 of the peak, half float); a copy that kept the original's
+    collection renders 1 x, a sun that did not exclude the tiles 3 x.  The
+    light linking is brought up to date as the render handler does it
+    (``sync_light_linking``), so that the check does not depend on
+    handlers being registered."""
+    t0 = time.perf_counter()
+    bpy = common.import_bpy()
+    backend = _backend(osl, eevee)
+    name = f"hybrid_copy_{backend}"
+    mat = _material(name)
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    g = gonio.build_gonio_scene(mat, light_dir=gonio.normalize((0.35, 0.25, 0.90)),
+                                resolution=resolution, osl=backend == "osl", name=name)
+    _use_backend(g.scene, api, backend)
+    g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
+    expected = 2.0 * g.reference("lambert")
+    worst, ratio, collections = 0.0, 0.0, set()
+    try:
+        api.bind_light(node, g.sun)
+        copy = g.sun.copy()
+        g.scene.collection.objects.link(copy)
+        for bind_both in (False, True):
+            if bind_both:
+                api.bind_light(node, g.sun, copy)
+            api.sync_light_linking()
+            collections = {lamp.light_linking.receiver_collection for lamp in (g.sun, copy)}
+            w, r = compare(g.render(), expected, g.mask, eevee=eevee)
+            worst, ratio = max(worst, w), max(ratio, r)
+        shared = len(collections) == 1 and None not in collections
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)
+    key, label, within, reason = _measure(eevee)
+    values = {"backend": backend, key: worst, "shared": shared, "n_lit": int(g.lit.sum())}
+    return Check(name=f"a copy of the bound sun, unbound then bound too, {backend}",
+                 passed=ratio <= 1.0 and shared,
+                 measured=f"max {label} {worst:.2e}; bound to both: "
+                 + ("one shared collection" if shared else "not one collection"),
+                 expected=within + " of twice the model (the copy's closure, then its exact "
+                 "evaluation)", group="hybrid", tolerance=reason, values=values,
                  seconds=time.perf_counter() - t0)
 
 
