@@ -184,7 +184,7 @@ def _instanced(scene, obj):
     excludes the instancer and not the new object, which is in no scene
     (it renders only as the instance), so the render tells in both
     engines whether the instancer is excluded, as does the check's
-    ``excluded``.  Returns the Empty, the collection and the new object.
+    ``excluded``.  Returns the Empty, the collection and the new object."""
     bpy = common.import_bpy()
     source = bpy.data.collections.new(obj.name + " source")
     copy = bpy.data.objects.new(obj.name + " instanced", obj.data)
