@@ -267,6 +267,24 @@ def shadows_not_followed(node) -> list:
     return out
 
 
+def retyped_lamps(node) -> list:
+    """``(lamp, the type it was bound as)`` for each bound lamp whose type
+    changed since binding: the node still takes it as that type (a sun as
+    a direction, a point or spot lamp from its position); an area lamp is
+    not one exact mode follows."""
+    out = []
+    for k, lamp in _bound_by_light(node):
+        try:
+            point = groups.input_socket(node, socket_name("point_light", k)).default_value
+            spot = groups.input_socket(node, socket_name("spot", k)).default_value
+        except KeyError:
+            continue
+        bound = 'SPOT' if spot > 0.5 else 'POINT' if point > 0.5 else 'SUN'
+        if lamp.data.type != bound:
+            out.append((lamp, bound))
+    return out
+
+
 def _bound_by_light(node) -> list:
     """``(k, lamp object)`` for each light k of ``node`` that follows a lamp."""
     out = []

@@ -509,6 +509,11 @@ def _draw_node(layout, context, node):
     if unfollowed:
         box.label(text="Shadows does not follow Cast Shadow of "
                   + ", ".join(o.name for o in unfollowed) + ": bind again", icon='INFO')
+    retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
+    for lamp, was in retyped:
+        box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (
+            "bind again" if lamp.data.type in lighting.SUPPORTED_LIGHTS
+            else "exact mode follows sun, point and spot lamps"), icon='ERROR')
     if mode == "hybrid":
         _draw_hybrid_linking(box, context.scene, node, bound)
     if mode != "path_traced" and not native_build.has_raycast() \

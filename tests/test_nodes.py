@@ -746,6 +746,37 @@ def _hybrid_lambert_under_a_sun(ui, bpy, name):
     return api, scene, mat, node, sun
 
 
+def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
+    """Binding fixes whether light k is a sun, a point or a spot lamp; a
+    lamp whose type changes afterwards is still taken as the type it had.
+    The sidebar names it until it is bound again (an area lamp cannot be)."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm retyped")
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+
+    def said():
+        return [t for t in sidebar_labels(bpy, ctx) if t.startswith("rm retyped sun:")]
+
+    try:
+        api.set_mode(node, "exact")
+        api.bind_light(node, sun)
+        assert said() == [] and lighting.retyped_lamps(node) == []
+        sun.data.type = 'SPOT'
+        assert said() == ["rm retyped sun: bound as Sun, now Spot: bind again"]
+        api.bind_light(node, sun)
+        assert said() == []
+        sun.data.type = 'POINT'
+        assert lighting.retyped_lamps(node) == [(sun, 'SPOT')]
+        sun.data.type = 'AREA'
+        assert said() == ["rm retyped sun: bound as Spot, now Area: exact mode follows sun, "
+                          "point and spot lamps"]
+    finally:
+        api.unbind_light(node)
+        bpy.data.batch_remove([sun])
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+
+
 def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_blender_applies(
         ui, bpy):
     """Blender applies at most 63 receiver collections in a scene (measured:
