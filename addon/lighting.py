@@ -6,8 +6,9 @@ Binding (:func:`bind_lights`): light k of a node (its inputs ``<name>`` for
 k = 1, ``<name>_<k>`` after) follows lamp k through drivers made of simple
 expressions only (no Python auto-run needed): a sun's direction from its
 world rotation, a point or spot lamp's position from its world location, a
-spot's axis, size and blend, the strength and colour, and whether it casts
-shadows.  Binding n lamps gives
+spot's axis, size and blend, the strength (none while the lamp object is
+disabled in renders) and colour, and whether it casts shadows.  Binding n
+lamps gives
 the node the group variant with n lights (structural: each light costs a
 shadow ray).
 
@@ -78,12 +79,14 @@ def _drive(socket, index, expression, variables):
     return fcurve
 
 
-def _prop(light_data, path):
+def _prop(data, path):
+    """A driver variable reading ``path`` of the ID ``data`` (a light's data
+    or a lamp object)."""
     def fill(var):
         var.type = 'SINGLE_PROP'
         target = var.targets[0]
-        target.id_type = 'LIGHT'
-        target.id = light_data
+        target.id_type = data.id_type
+        target.id = data
         target.data_path = path
     return fill
 
@@ -111,8 +114,11 @@ LAMP_Z = (
 # point or spot lamp of power P, measured against a Diffuse BSDF in Cycles
 # (tests/test_api.py): P / (4 pi) with "normalize" on (the default); with it
 # off, P r^2 for a radius r > 0 and P / pi for r = 0.
-SUN_STRENGTH = "e * pow(2, x)"
-POINT_STRENGTH = "e * pow(2, x) * (1 / (4 * pi) if n else (r * r if r > 0 else 1 / pi))"
+# h: the lamp object's Disable in Renders (a lamp hidden from renders lights nothing)
+HIDDEN = "h"
+SUN_STRENGTH = "e * pow(2, x) * (1 - h)"
+POINT_STRENGTH = ("e * pow(2, x) * (1 / (4 * pi) if n else (r * r if r > 0 else 1 / pi))"
+                  " * (1 - h)")
 LIGHT_COLOR = "c * (t if u else 1)"
 
 
@@ -180,7 +186,8 @@ def _bind_one(node, k, light_object):
     if kind == 'SPOT':
         _drive(sock("spot_size"), -1, "s", {"s": _prop(light, "spot_size")})
         _drive(sock("spot_blend"), -1, "b", {"b": _prop(light, "spot_blend")})
-    strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure")}
+    strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure"),
+                HIDDEN: _prop(light_object, "hide_render")}
     if kind != 'SUN':
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
     _drive(sock("light_strength"), -1, SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH,
@@ -250,19 +257,23 @@ def bound_lights(node) -> list:
     return [lamp for _k, lamp in _bound_by_light(node)]
 
 
-def shadows_not_followed(node) -> list:
-    """The bound lamps whose Cast Shadow light k's Shadows input does not
-    follow: nodes bound before binding drove it keep the value they had
-    (a user may have set it), until bound again."""
+def outdated_bindings(node) -> list:
+    """The bound lamps that light k follows as an earlier version bound
+    them: its Shadows not driven by the lamp's Cast Shadow, or its
+    strength not by the lamp's Disable in Renders.  Such a node keeps the
+    values it had (a user may have set them) until bound again."""
     anim = node.id_data.animation_data
-    driven = {fc.data_path for fc in anim.drivers} if anim else set()
+    drivers = {fc.data_path: fc.driver for fc in anim.drivers} if anim else {}
     out = []
     for k, lamp in _bound_by_light(node):
         try:
-            socket = groups.input_socket(node, socket_name("shadows", k))
+            shadows, strength = (groups.input_socket(node, socket_name(name, k))
+                                 for name in ("shadows", "light_strength"))
         except KeyError:
             continue
-        if socket.path_from_id("default_value") not in driven:
+        driver = drivers.get(strength.path_from_id("default_value"))
+        if shadows.path_from_id("default_value") not in drivers or driver is None \
+                or HIDDEN not in {v.name for v in driver.variables}:
             out.append(lamp)
     return out
 

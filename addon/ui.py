@@ -505,10 +505,10 @@ def _draw_node(layout, context, node):
     row.operator_menu_enum(NODE_OT_rm_bind_light.bl_idname, "light", text="Bind One")
     if bound:
         box.operator(NODE_OT_rm_unbind_light.bl_idname, icon='X')
-    unfollowed = lighting.shadows_not_followed(node) if mode != "path_traced" else []
-    if unfollowed:
-        box.label(text="Shadows does not follow Cast Shadow of "
-                  + ", ".join(o.name for o in unfollowed) + ": bind again", icon='INFO')
+    outdated = lighting.outdated_bindings(node) if mode != "path_traced" else []
+    if outdated:
+        box.label(text="Bound by an earlier version, not following Cast Shadow or Disable in "
+                  "Renders: " + ", ".join(o.name for o in outdated) + ": bind again", icon='INFO')
     retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
     for lamp, was in retyped:
         box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (

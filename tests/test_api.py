@@ -247,6 +247,13 @@ def test_bound_sun_drivers_are_simple_and_follow_the_rotation(api, bpy):
     assert stats["max_rel_error"] < 1e-3, stats
     assert np.abs(second - first).max() > 0.1  # the highlight moved
 
+    # Disable in Renders: Cycles renders no such lamp, and neither does exact mode
+    # (the bound node lit the tiles as before until its strength followed it)
+    g.sun.hide_render = True
+    assert not g.render()[g.mask].any()
+    g.sun.hide_render = False
+    assert np.array_equal(g.render(), second)
+
     api.unbind_light(node)
     assert api.light_drivers(node) == [] and api.bound_light(node) is None
 

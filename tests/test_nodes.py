@@ -695,12 +695,14 @@ def test_sidebar_names_hybrid_objects_that_also_use_other_materials_and_sized_la
     api.unbind_light(node)
 
 
-def test_sidebar_says_when_shadows_does_not_follow_cast_shadow(ui, bpy):
-    """A node bound before binding drove Shadows keeps the value it had
-    (a user may have set it): the sidebar names the lamps of such lights
-    in exact and hybrid mode, and binding again takes it away."""
+def test_sidebar_says_when_a_binding_is_an_earlier_versions(ui, bpy):
+    """A node bound before binding drove Shadows from Cast Shadow, or the
+    strength from Disable in Renders, keeps the values it had (a user may
+    have set them): the sidebar names the lamps of such lights in exact
+    and hybrid mode, and binding again takes it away."""
     api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     scene = bpy.context.scene
     mat = new_material(bpy, "rm shadows follow")
     node = api.add_model(mat, "lambert", mode="exact")
@@ -710,24 +712,33 @@ def test_sidebar_says_when_shadows_does_not_follow_cast_shadow(ui, bpy):
         scene.collection.objects.link(lamps[-1])
     api.bind_light(node, *lamps)
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
-    message = "Shadows does not follow Cast Shadow of Fill: bind again"
+
+    def message(names):
+        return ("Bound by an earlier version, not following Cast Shadow or Disable in Renders: "
+                f"{names}: bind again")
 
     try:
-        assert lighting.shadows_not_followed(node) == []
-        assert message not in sidebar_labels(bpy, ctx)
+        assert lighting.outdated_bindings(node) == []
+        assert not [t for t in sidebar_labels(bpy, ctx) if t.startswith("Bound by")]
         # as a node bound by an older version: no driver on light 2's Shadows
-        groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
         socket = groups.input_socket(node, lighting.socket_name("shadows", 2))
         assert socket.name == "Shadows 2"
         socket.driver_remove("default_value")
-        assert lighting.shadows_not_followed(node) == [lamps[1]]
-        assert message in sidebar_labels(bpy, ctx)
+        assert lighting.outdated_bindings(node) == [lamps[1]]
+        assert message("Fill") in sidebar_labels(bpy, ctx)
+        # ... and light 1's strength without Disable in Renders
+        strength = groups.input_socket(node, lighting.socket_name("light_strength", 1))
+        driver = next(fc.driver for fc in mat.node_tree.animation_data.drivers
+                      if fc.data_path == strength.path_from_id("default_value"))
+        driver.variables.remove(next(v for v in driver.variables
+                                     if v.name == lighting.HIDDEN))
+        assert message("Key, Fill") in sidebar_labels(bpy, ctx)
         api.set_mode(node, "path_traced")  # no exact evaluation: nothing to say
-        assert message not in sidebar_labels(bpy, ctx)
+        assert message("Key, Fill") not in sidebar_labels(bpy, ctx)
         api.set_mode(node, "exact")
         api.bind_light(node, *lamps)
-        assert lighting.shadows_not_followed(node) == []
-        assert message not in sidebar_labels(bpy, ctx)
+        assert lighting.outdated_bindings(node) == []
+        assert not [t for t in sidebar_labels(bpy, ctx) if t.startswith("Bound by")]
     finally:
         api.unbind_light(node)
         bpy.data.batch_remove(lamps)
