@@ -278,6 +278,40 @@ def outdated_bindings(node) -> list:
     return out
 
 
+def deleted_lamp_lights(node) -> list:
+    """The lights k of ``node`` whose bound lamp was deleted: their drivers
+    lost their lamp and no longer evaluate, so the light keeps the values
+    they last gave it and lit the tiles as before (measured: Delete on
+    the bound sun, and exact mode rendered a light where the scene had
+    none).  :func:`release_deleted_lamps` takes them away."""
+    anim = node.id_data.animation_data
+    if anim is None:
+        return []
+    out = []
+    for k in range(1, light_count(node) + 1):
+        paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
+        targets = [var.targets[0].id for fc in anim.drivers if fc.data_path in paths
+                   for var in fc.driver.variables if var.type == 'TRANSFORMS']
+        if targets and all(t is None for t in targets):
+            out.append(k)
+    return out
+
+
+def release_deleted_lamps() -> int:
+    """For every light whose bound lamp was deleted (:func:`deleted_lamp_lights`),
+    in every material's RM nodes: its drivers removed and its strength set
+    to 0, as the deleted lamp would light: nothing.  Returns how many
+    lights.  Run on render and save, as the light linking's update is."""
+    count = 0
+    for mat in bpy.data.materials:
+        for node in groups.rm_nodes_in(mat.node_tree):
+            for k in deleted_lamp_lights(node):
+                _remove_drivers(node, k)
+                groups.input_socket(node, socket_name("light_strength", k)).default_value = 0.0
+                count += 1
+    return count
+
+
 def retyped_lamps(node) -> list:
     """``(lamp, the type it was bound as)`` for each bound lamp whose type
     changed since binding: the node still takes it as that type (a sun as

@@ -509,6 +509,10 @@ def _draw_node(layout, context, node):
     if outdated:
         box.label(text="Bound by an earlier version, not following Cast Shadow or Disable in "
                   "Renders: " + ", ".join(o.name for o in outdated) + ": bind again", icon='INFO')
+    deleted = lighting.deleted_lamp_lights(node) if mode != "path_traced" else []
+    if deleted:
+        box.label(text="Lamp deleted for light " + ", ".join(map(str, deleted))
+                  + ": lit as before until the next render or save sets it to 0", icon='ERROR')
     retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
     for lamp, was in retyped:
         box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (
@@ -636,12 +640,17 @@ def on_save_pre(*_args):
 
 def _sync_light_linking(in_render=False):
     """Hybrid mode's light linking for objects that got or lost a hybrid
-    material since (never lets a failure stop a render or a save)."""
+    material since, and the lights whose bound lamp was deleted (never
+    lets a failure stop a render or a save)."""
     try:
+        released = lighting.release_deleted_lamps()
         n = lighting.sync_light_linking(in_render=in_render)
     except (RuntimeError, ReferenceError, TypeError) as exc:
         log.warning("Reflection Models: could not update the light linking: %s", exc)
         return
+    if released:
+        log.info("Reflection Models: %d light(s) whose lamp was deleted set to strength 0",
+                 released)
     if n:
         log.info("Reflection Models: light linking updated (%d change(s))", n)
 

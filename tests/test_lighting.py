@@ -788,3 +788,32 @@ def test_an_object_deleted_from_its_scene_is_let_go(api, bpy):
         api.unbind_light(node)
         bpy.data.scenes.remove(scene)
         bpy.data.materials.remove(mat)
+
+
+def test_a_deleted_bound_lamp_lights_nothing_from_the_next_render(bpy, installed_extension):
+    """Deleting the bound sun left its drivers without a lamp: they stop
+    evaluating and the light kept their last values, so exact mode lit the
+    tiles with no lamp in the scene (measured before the render handler
+    took such lights away).  The render handler removes those drivers and
+    sets the light's strength to 0: the render is black."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    linking = importlib.import_module(installed_extension + ".lighting")
+    mat = _material("rm_deleted_lamp")
+    node = api.add_model(mat, "lambert", mode="exact")
+    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
+                                name="rm_deleted_lamp")
+    try:
+        api.bind_light(node, g.sun)
+        assert g.render()[g.lit].min() > 0
+        with bpy.context.temp_override(scene=g.scene, selected_objects=[g.sun],
+                                       active_object=g.sun):
+            assert bpy.ops.object.delete() == {'FINISHED'}
+        assert linking.deleted_lamp_lights(node) == [1] and len(api.light_drivers(node)) == 8
+        img = g.render()
+        assert linking.deleted_lamp_lights(node) == [] and api.light_drivers(node) == []
+        assert not img[g.mask].any()
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)

@@ -788,6 +788,26 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
         bpy.data.materials.remove(mat)
 
 
+def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
+    """A light whose lamp was deleted keeps its last values until the next
+    render or save sets it to 0 (tests/test_lighting.py); the sidebar says
+    so meanwhile."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm deleted")
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = "Lamp deleted for light 1: lit as before until the next render or save sets it to 0"
+    try:
+        api.bind_light(node, sun)
+        assert message not in sidebar_labels(bpy, ctx)
+        bpy.data.objects.remove(sun)
+        assert message in sidebar_labels(bpy, ctx)
+        api.unbind_light(node)
+        assert message not in sidebar_labels(bpy, ctx)
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+
+
 def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_blender_applies(
         ui, bpy):
     """Blender applies at most 63 receiver collections in a scene (measured:
