@@ -557,6 +557,20 @@ def test_objects_that_get_the_material_later_are_excluded_on_render_and_save(
     bpy.data.scenes.remove(g.scene)
 
 
+def _installed_lambert_gonio(installed_extension, name, mode):
+    """``(api, lighting, material, node, gonio scene)`` of the installed
+    extension (its render and save handlers run): a Lambert node in
+    ``mode`` on the gonio's tiles, native nodes, 32 × 32, not bound yet."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    linking = importlib.import_module(installed_extension + ".lighting")
+    mat = _material(name)
+    node = api.add_model(mat, "lambert", mode=mode)
+    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
+                                name=name)
+    return api, linking, mat, node, g
+
+
 def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extension):
     """Blender gives a copy of a lamp (Shift D, copy and paste) the
     original's light linking: the copy of a bound sun excluded the hybrid
@@ -568,13 +582,8 @@ def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extensi
     the node bound to both: they share one collection, each renders the
     model exactly and neither adds its closure's light (2 × again, where a
     lamp that did not exclude the tiles would make it 3 ×)."""
-    import importlib
-    api = importlib.import_module(installed_extension + ".api")
-    linking = importlib.import_module(installed_extension + ".lighting")
-    mat = _material("rm_ll_copy")
-    node = api.add_model(mat, "lambert", mode="hybrid")
-    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
-                                name="rm_ll_copy")
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_copy",
+                                                          "hybrid")
     g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
     try:
         api.bind_light(node, g.sun)
@@ -796,13 +805,8 @@ def test_a_deleted_bound_lamp_lights_nothing_from_the_next_render(bpy, installed
     tiles with no lamp in the scene (measured before the render handler
     took such lights away).  The render handler removes those drivers and
     sets the light's strength to 0: the render is black."""
-    import importlib
-    api = importlib.import_module(installed_extension + ".api")
-    linking = importlib.import_module(installed_extension + ".lighting")
-    mat = _material("rm_deleted_lamp")
-    node = api.add_model(mat, "lambert", mode="exact")
-    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
-                                name="rm_deleted_lamp")
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension,
+                                                          "rm_deleted_lamp", "exact")
     try:
         api.bind_light(node, g.sun)
         assert g.render()[g.lit].min() > 0
