@@ -379,16 +379,24 @@ def hybrid_nodes():
                 yield mat, node
 
 
-def _users(material, evaluated=None):
-    """Objects in a scene with ``material`` in a slot, and those
-    ``evaluated`` (from :func:`_evaluated_users`) gives for it.  An object
-    in no scene renders only as an instance, and then its instancer is
-    excluded (the engines apply the instancer's light linking); one deleted
-    from its scene stays in the data while the extension's collection holds
-    it, and would be held for ever."""
+def _in_scenes() -> set:
+    """The pointers of the objects in some scene (one walk of the scenes:
+    ``Object.users_scene`` walks them for each object)."""
+    return {obj.as_pointer() for scene in bpy.data.scenes for obj in scene.objects}
+
+
+def _users(material, evaluated=None, in_scenes=None):
+    """Objects in a scene (``in_scenes``: from :func:`_in_scenes`, read here
+    if None) with ``material`` in a slot, and those ``evaluated`` (from
+    :func:`_evaluated_users`) gives for it.  An object in no scene renders
+    only as an instance, and then its instancer is excluded (the engines
+    apply the instancer's light linking); one deleted from its scene stays
+    in the data while the extension's collection holds it, and would be
+    held for ever."""
+    in_scenes = _in_scenes() if in_scenes is None else in_scenes
     users = {obj for obj in bpy.data.objects
              if any(slot.material == material for slot in getattr(obj, "material_slots", ()))
-             and obj.users_scene}
+             and obj.as_pointer() in in_scenes}
     return users | (evaluated or {}).get(material, set())
 
 
@@ -471,8 +479,9 @@ def _exclusions(evaluate=True, hybrid=None):
     lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
                    for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
+    in_scenes = _in_scenes() if hybrid else set()
     for mat, _node, lamps in hybrid:
-        users = _users(mat, evaluated)
+        users = _users(mat, evaluated, in_scenes)
         for lamp in lamps:
             need.setdefault(lamp, set()).update(users)
     return need, unknown
@@ -612,8 +621,9 @@ def sync_light_linking(*, in_render=False) -> int:
         if coll is None:
             continue
         added = added_objects(coll)
+        members = {member.as_pointer() for member in coll.objects}
         for obj in sorted(objects, key=lambda o: o.name):
-            if _entry(coll, obj) is None:
+            if obj.as_pointer() not in members:
                 coll.objects.link(obj)
                 _entry(coll, obj).light_linking.link_state = 'EXCLUDE'
                 added.append(obj)
@@ -734,8 +744,10 @@ def out_of_sync(evaluate=True, need=None) -> bool:
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             return True
+        entries = {member.as_pointer(): entry
+                   for entry, member in zip(coll.collection_objects, coll.objects)}
         for obj in objects:
-            entry = _entry(coll, obj)
+            entry = entries.get(obj.as_pointer())
             if entry is None or entry.light_linking.link_state != 'EXCLUDE':
                 return True
     return False
@@ -744,7 +756,10 @@ def out_of_sync(evaluate=True, need=None) -> bool:
 def _entry(coll, obj):
     """The collection's entry of ``obj`` (its light-linking state), or None.
     ``collection_objects`` takes no keys and its entries name no object: it
-    walks the same list as ``objects``, in the same order."""
+    walks the same list as ``objects``, in the same order (an object just
+    linked is the last: looked at first)."""
+    if len(coll.objects) and coll.objects[-1] == obj:
+        return coll.collection_objects[-1]
     for entry, member in zip(coll.collection_objects, coll.objects):
         if member == obj:
             return entry
