@@ -622,12 +622,19 @@ def sync_light_linking(*, in_render=False) -> int:
             continue
         added = added_objects(coll)
         members = {member.as_pointer() for member in coll.objects}
-        for obj in sorted(objects, key=lambda o: o.name):
-            if obj.as_pointer() not in members:
-                coll.objects.link(obj)
-                _entry(coll, obj).light_linking.link_state = 'EXCLUDE'
-                added.append(obj)
-                changes += 1
+        new = [obj for obj in sorted(objects, key=lambda o: o.name)
+               if obj.as_pointer() not in members]
+        for obj in new:
+            coll.objects.link(obj)
+        # their entries in one walk: ``collection_objects`` takes no keys and its entries
+        # name no object; it walks the same list as ``objects``, in the same order
+        if new:
+            linked = {obj.as_pointer() for obj in new}
+            for entry, member in zip(coll.collection_objects, coll.objects):
+                if member.as_pointer() in linked:
+                    entry.light_linking.link_state = 'EXCLUDE'
+        added += new
+        changes += len(new)
         coll[ADDED] = added
     # what is no longer needed: only what the extension added
     for coll in list(bpy.data.collections):
@@ -751,16 +758,3 @@ def out_of_sync(evaluate=True, need=None) -> bool:
             if entry is None or entry.light_linking.link_state != 'EXCLUDE':
                 return True
     return False
-
-
-def _entry(coll, obj):
-    """The collection's entry of ``obj`` (its light-linking state), or None.
-    ``collection_objects`` takes no keys and its entries name no object: it
-    walks the same list as ``objects``, in the same order (an object just
-    linked is the last: looked at first)."""
-    if len(coll.objects) and coll.objects[-1] == obj:
-        return coll.collection_objects[-1]
-    for entry, member in zip(coll.collection_objects, coll.objects):
-        if member == obj:
-            return entry
-    return None

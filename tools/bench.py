@@ -13,6 +13,9 @@ Prints tables; asserts nothing (speed is measured here, never in tests):
 * build: the time to add a node of a variant not yet in the file, its
   native nodes built in nested parts and in one tree
   (:mod:`verification.bench.build`);
+* linking: the hybrid mode's light linking (binding, an update, the
+  sidebar's check) with 200 to 10,000 objects
+  (:mod:`verification.bench.linking`);
 * eevee: EEVEE's shader compile time per model against a Principled BSDF,
   the peak memory of a process rendering each model (EEVEE, Cycles with OSL
   off and on), and the native node count per model
@@ -36,11 +39,14 @@ def main(argv=None):
     parser.add_argument("--render", action="store_true", help="only the render-time table")
     parser.add_argument("--count", action="store_true", help="only the instruction-count table")
     parser.add_argument("--build", action="store_true", help="only the group build-time table")
+    parser.add_argument("--linking", action="store_true",
+                        help="only the hybrid light-linking table")
     parser.add_argument("--eevee", action="store_true",
                         help="only the EEVEE compile-time, memory and node-count tables")
     parser.add_argument("-n", type=int, default=1_000_000, help="batch size for the reference")
     args = parser.parse_args(argv)
-    every = not (args.reference or args.render or args.count or args.eevee or args.build)
+    every = not (args.reference or args.render or args.count or args.eevee or args.build
+                 or args.linking)
     if args.reference or every:
         from verification.bench import reference
         reference.bench_reference(args.n)
@@ -51,6 +57,10 @@ def main(argv=None):
         import subprocess
         # its own process: a file holding nothing but the groups it builds
         subprocess.run([sys.executable, "-m", "verification.bench.build"], check=False)
+    if args.linking or every:
+        import subprocess
+        # its own process: a file holding nothing but the scene it times
+        subprocess.run([sys.executable, "-m", "verification.bench.linking"], check=False)
     if args.eevee or every:
         import subprocess
         # its own process: EEVEE's GPU context beside the render benchmarks' Cycles
