@@ -203,6 +203,18 @@ def kept_depsgraphs(scene) -> list:
     return [g for g in map(kept_depsgraph, scene.view_layers) if g is not None]
 
 
+def object_scenes() -> dict:
+    """Object pointer -> the scenes it is in, from one walk of every
+    scene's objects (``Object.users_scene`` walks them for each object, so
+    asking every object made a large scene's checks grow with its size
+    squared)."""
+    out = {}
+    for scene in bpy.data.scenes:
+        for obj in scene.objects:
+            out.setdefault(obj.as_pointer(), []).append(scene)
+    return out
+
+
 def materials_as_kept(obj, graphs=None) -> set:
     """The materials ``obj`` renders with (:func:`rendered_materials`) in
     the depsgraphs ``graphs`` (by default those Blender keeps of its

@@ -379,21 +379,15 @@ def hybrid_nodes():
                 yield mat, node
 
 
-def _in_scenes() -> set:
-    """The pointers of the objects in some scene (one walk of the scenes:
-    ``Object.users_scene`` walks them for each object)."""
-    return {obj.as_pointer() for scene in bpy.data.scenes for obj in scene.objects}
-
-
 def _users(material, evaluated=None, in_scenes=None):
-    """Objects in a scene (``in_scenes``: from :func:`_in_scenes`, read here
-    if None) with ``material`` in a slot, and those ``evaluated`` (from
+    """Objects in a scene (``in_scenes``: :func:`groups.object_scenes`, read
+    here if None) with ``material`` in a slot, and those ``evaluated`` (from
     :func:`_evaluated_users`) gives for it.  An object in no scene renders
     only as an instance, and then its instancer is excluded (the engines
     apply the instancer's light linking); one deleted from its scene stays
     in the data while the extension's collection holds it, and would be
     held for ever."""
-    in_scenes = _in_scenes() if in_scenes is None else in_scenes
+    in_scenes = groups.object_scenes() if in_scenes is None else in_scenes
     users = {obj for obj in bpy.data.objects
              if any(slot.material == material for slot in getattr(obj, "material_slots", ()))
              and obj.as_pointer() in in_scenes}
@@ -448,17 +442,19 @@ def _evaluated_users(evaluate=True, lamp_scenes=None):
                   or any(m.type == 'NODES' for m in getattr(obj, "modifiers", ()))]
     if not candidates:
         return {}, set()
-    scenes = {scene for obj in candidates for scene in obj.users_scene
+    scenes_of = groups.object_scenes()
+    of = {obj.as_pointer(): scenes_of.get(obj.as_pointer(), []) for obj in candidates}
+    scenes = {scene for obj in candidates for scene in of[obj.as_pointer()]
               if lamp_scenes is None or scene in lamp_scenes}
     out, read = {}, set()
     for scene, graph in _depsgraphs(sorted(scenes, key=lambda s: s.name), evaluate):
         read.add(scene.name)
         for obj in candidates:
-            if scene in obj.users_scene:
+            if scene in of[obj.as_pointer()]:
                 for material in groups.rendered_materials(obj, graph):
                     out.setdefault(material, set()).add(obj)
-    unknown = {obj for obj in candidates if any(scene in scenes for scene in obj.users_scene)
-               and not any(scene.name in read for scene in obj.users_scene)}
+    unknown = {obj for obj in candidates if any(scene in scenes for scene in of[obj.as_pointer()])
+               and not any(scene.name in read for scene in of[obj.as_pointer()])}
     return out, unknown
 
 
@@ -479,7 +475,7 @@ def _exclusions(evaluate=True, hybrid=None):
     lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
                    for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
-    in_scenes = _in_scenes() if hybrid else set()
+    in_scenes = groups.object_scenes() if hybrid else {}
     for mat, _node, lamps in hybrid:
         users = _users(mat, evaluated, in_scenes)
         for lamp in lamps:
@@ -502,13 +498,18 @@ def also_other_materials(node) -> list:
     for mat, _other, bound in _hybrid_bindings():
         for lamp in bound:
             exact.setdefault(lamp, set()).add(mat)
-    out = set()
+    out, scenes_of, graphs_of = set(), groups.object_scenes(), {}
     for lamp in lamps:
         coll = lamp.light_linking.receiver_collection
         if coll is None:
             continue
         for obj in added_objects(coll):
-            if groups.materials_as_kept(obj) - exact.get(lamp, set()):
+            graphs = []
+            for scene in scenes_of.get(obj.as_pointer(), ()):
+                if scene.name_full not in graphs_of:
+                    graphs_of[scene.name_full] = groups.kept_depsgraphs(scene)
+                graphs += graphs_of[scene.name_full]
+            if groups.materials_as_kept(obj, graphs) - exact.get(lamp, set()):
                 out.add(obj)
     return sorted(out, key=lambda o: o.name)
 
