@@ -305,6 +305,8 @@ def release_deleted_lamps() -> int:
     count = 0
     for mat in bpy.data.materials:
         for node in groups.rm_nodes_in(mat.node_tree):
+            if node.id_data.library is not None:  # linked: read-only here
+                continue
             for k in deleted_lamp_lights(node):
                 _remove_drivers(node, k)
                 groups.input_socket(node, socket_name("light_strength", k)).default_value = 0.0
