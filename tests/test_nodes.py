@@ -757,6 +757,14 @@ def _hybrid_lambert_under_a_sun(ui, bpy, name):
     return api, scene, mat, node, sun
 
 
+def _remove_hybrid_scene(bpy, api, node, scene, mat, made):
+    """Undo :func:`_hybrid_lambert_under_a_sun` and what a test ``made``."""
+    api.unbind_light(node)
+    bpy.data.batch_remove(made)
+    bpy.data.scenes.remove(scene)
+    bpy.data.materials.remove(mat)
+
+
 def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
     """Binding fixes whether light k is a sun, a point or a spot lamp; a
     lamp whose type changes afterwards is still taken as the type it had.
@@ -782,10 +790,7 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
         assert said() == ["rm retyped sun: bound as Spot, now Area: exact mode follows sun, "
                           "point and spot lamps"]
     finally:
-        api.unbind_light(node)
-        bpy.data.batch_remove([sun])
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun])
 
 
 def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
@@ -838,10 +843,7 @@ def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_ble
         assert lighting.receiver_collections(scene) == lighting.RECEIVER_COLLECTIONS_MAX
         assert message not in sidebar_labels(bpy, ctx)
     finally:
-        api.unbind_light(node)
-        bpy.data.batch_remove(made)
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, made)
 
 
 def test_sidebar_names_a_copy_of_a_bound_lamp_that_excludes_the_hybrid_objects(ui, bpy):
@@ -863,10 +865,7 @@ def test_sidebar_names_a_copy_of_a_bound_lamp_that_excludes_the_hybrid_objects(u
         assert message not in sidebar_labels(bpy, ctx)
         assert made[-1].light_linking.receiver_collection is None
     finally:
-        api.unbind_light(node)
-        bpy.data.batch_remove(made)
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, made)
 
 
 def test_sidebar_names_an_unbound_lamp_sharing_a_users_collection_with_a_bound_one(ui, bpy):
@@ -895,10 +894,7 @@ def test_sidebar_names_an_unbound_lamp_sharing_a_users_collection_with_a_bound_o
         api.unbind_light(node)
         assert message not in sidebar_labels(bpy, ctx)
     finally:
-        api.unbind_light(node)
-        bpy.data.batch_remove([sun, other, obj, users])
-        bpy.data.scenes.remove(scene)
-        bpy.data.materials.remove(mat)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, other, obj, users])
 
 
 def test_sidebar_says_a_lamp_linked_from_a_library_keeps_no_light_linking(ui, bpy, tmp_path):
