@@ -585,6 +585,7 @@ def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extensi
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_copy",
                                                           "hybrid")
     g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
+    copy = None
     try:
         api.bind_light(node, g.sun)
         copy = g.sun.copy()
@@ -608,6 +609,8 @@ def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extensi
         api.unbind_light(node)
         bpy.data.scenes.remove(g.scene)
         bpy.data.materials.remove(mat)
+        if copy is not None:
+            bpy.data.objects.remove(copy)
 
 
 def test_the_demos_check_of_a_copied_lamp(api):

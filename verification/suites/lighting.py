@@ -289,7 +289,7 @@ def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
     _use_backend(g.scene, api, backend)
     g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
     expected = 2.0 * g.reference("lambert")
-    worst, ratio, collections = 0.0, 0.0, set()
+    worst, ratio, collections, copy = 0.0, 0.0, set(), None
     try:
         api.bind_light(node, g.sun)
         copy = g.sun.copy()
@@ -306,6 +306,8 @@ def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
         api.unbind_light(node)
         bpy.data.scenes.remove(g.scene)
         bpy.data.materials.remove(mat)
+        if copy is not None:
+            bpy.data.objects.remove(copy)
     key, label, within, reason = _measure(eevee)
     values = {"backend": backend, key: worst, "shared": shared, "n_lit": int(g.lit.sum())}
     return Check(name=f"a copy of the bound sun, unbound then bound too, {backend}",
