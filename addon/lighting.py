@@ -314,6 +314,34 @@ def release_deleted_lamps() -> int:
     return count
 
 
+def _renders_in(lamp, layer) -> bool:
+    """Whether ``lamp`` is in a collection of ``layer`` that renders: not
+    excluded from the view layer and not disabled in renders, down from
+    the scene's collection.  Blender builds a view layer's tree of layer
+    collections lazily: a layer without one yet counts as rendering."""
+    if layer.layer_collection is None:
+        return True
+    todo = [layer.layer_collection]
+    while todo:
+        node = todo.pop()
+        if node.exclude or node.collection.hide_render:
+            continue
+        if node.collection.objects.get(lamp.name) == lamp:
+            return True
+        todo.extend(node.children)
+    return False
+
+
+def unrendered_lamps(node, layer) -> list:
+    """The bound lamps of ``node`` that the view layer ``layer`` does not
+    render: in no collection of it, or only in collections excluded from it
+    or disabled in renders.  Exact mode lights with them all the same (its
+    drivers follow the lamp object's own Disable in Renders only: a
+    driver cannot follow which collections a lamp is in)."""
+    return [lamp for lamp in bound_lights(node)
+            if not lamp.hide_render and not _renders_in(lamp, layer)]
+
+
 def retyped_lamps(node) -> list:
     """``(lamp, the type it was bound as)`` for each bound lamp whose type
     changed since binding: the node still takes it as that type (a sun as

@@ -513,6 +513,13 @@ def _draw_node(layout, context, node):
     if deleted:
         box.label(text="Lamp deleted for light " + ", ".join(map(str, deleted))
                   + ": lit as before until the next render or save sets it to 0", icon='ERROR')
+    layer = getattr(context, "view_layer", None)
+    unrendered = (lighting.unrendered_lamps(node, layer)
+                  if mode != "path_traced" and layer is not None else [])
+    if unrendered:
+        box.label(text="Exact mode lights with lamps this view layer does not render (their "
+                  "collections excluded or disabled in renders): " + ", ".join(
+                      o.name for o in unrendered), icon='INFO')
     retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
     for lamp, was in retyped:
         box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (

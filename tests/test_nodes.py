@@ -793,6 +793,46 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun])
 
 
+def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bpy):
+    """Exact mode's drivers follow the lamp object's Disable in Renders
+    (tests/test_api.py), not the collections it is in (measured, 5.2.4: the
+    bound sun's collection disabled in renders, the path-traced gonio
+    rendered 0 and the exact one the model as before): the sidebar names a
+    bound lamp whose collections are all excluded from the view layer or
+    disabled in renders."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm unrendered")
+    rig = bpy.data.collections.new("rm unrendered rig")
+    scene.collection.children.link(rig)
+    rig.objects.link(sun)
+    scene.collection.objects.unlink(sun)
+    layer = scene.view_layers[0]
+    ctx = shader_editor(scene=scene, view_layer=layer, active_node=node, active_object=None,
+                        selected_objects=[])
+    message = ("Exact mode lights with lamps this view layer does not render (their collections "
+               "excluded or disabled in renders): rm unrendered sun")
+
+    def said():
+        layer.update()  # Blender builds the layer collections lazily; the UI has them
+        return message in sidebar_labels(bpy, ctx)
+
+    try:
+        api.bind_light(node, sun)
+        assert not said()
+        rig.hide_render = True
+        assert said()
+        rig.hide_render = False
+        layer.layer_collection.children[rig.name].exclude = True
+        assert said()
+        scene.collection.objects.link(sun)  # rendered through another collection
+        assert not said()
+        scene.collection.objects.unlink(sun)
+        assert said()
+        sun.hide_render = True  # followed by the drivers: nothing to say
+        assert not said()
+    finally:
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig])
+
+
 def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
     """A light whose lamp was deleted keeps its last values until the next
     render or save sets it to 0 (tests/test_lighting.py); the sidebar says
