@@ -342,6 +342,16 @@ def unrendered_lamps(node, layer) -> list:
             if not lamp.hide_render and not _renders_in(lamp, layer)]
 
 
+def shadow_linked_lamps(node) -> list:
+    """The bound lamps with shadow linking (a blocker collection): exact
+    mode's shadow ray sees every object, where Cycles casts the lamp's
+    shadows from the collection's objects only (measured, 5.2.4, OSL and
+    native nodes: an occluder excluded from the sun's blockers shadowed the
+    exact render and not the path-traced one)."""
+    return [lamp for lamp in bound_lights(node)
+            if lamp.light_linking.blocker_collection is not None]
+
+
 def retyped_lamps(node) -> list:
     """``(lamp, the type it was bound as)`` for each bound lamp whose type
     changed since binding: the node still takes it as that type (a sun as

@@ -520,6 +520,10 @@ def _draw_node(layout, context, node):
         box.label(text="Exact mode lights with lamps this view layer does not render (their "
                   "collections excluded or disabled in renders): " + ", ".join(
                       o.name for o in unrendered), icon='INFO')
+    blocked = lighting.shadow_linked_lamps(node) if mode != "path_traced" else []
+    if blocked:
+        box.label(text="Shadow linking not followed: exact mode's shadow ray sees every object "
+                  "for " + ", ".join(o.name for o in blocked), icon='INFO')
     retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
     for lamp, was in retyped:
         box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (

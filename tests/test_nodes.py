@@ -833,6 +833,29 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig])
 
 
+def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):
+    """Exact mode's shadow ray (the Raycast node, OSL's trace) sees every
+    object; a lamp's shadow linking (its blocker collection) limits which
+    objects cast its shadows in Cycles (measured, 5.2.4, with OSL and on
+    the native nodes: an occluder excluded from the sun's blockers shadowed
+    the exact gonio, 0.0, and not the path-traced one, the model).  The sidebar names such lamps in
+    exact and hybrid mode."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm blockers")
+    blockers = bpy.data.collections.new("rm blockers")
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = ("Shadow linking not followed: exact mode's shadow ray sees every object for "
+               "rm blockers sun")
+    try:
+        api.bind_light(node, sun)
+        assert message not in sidebar_labels(bpy, ctx)
+        sun.light_linking.blocker_collection = blockers
+        assert message in sidebar_labels(bpy, ctx)
+        api.set_mode(node, "path_traced")  # Cycles' own shadows: nothing to say
+        assert message not in sidebar_labels(bpy, ctx)
+    finally:
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, blockers])
+
+
 def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
     """A light whose lamp was deleted keeps its last values until the next
     render or save sets it to 0 (tests/test_lighting.py); the sidebar says
