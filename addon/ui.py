@@ -653,15 +653,20 @@ def _sync_light_linking(in_render=False):
     """Hybrid mode's light linking for objects that got or lost a hybrid
     material since, and the lights whose bound lamp was deleted (never
     lets a failure stop a render or a save)."""
+    failures = (AttributeError, RuntimeError, ReferenceError, TypeError)
     try:
         released = lighting.release_deleted_lamps()
+    except failures as exc:
+        log.warning("Reflection Models: could not release the lights of deleted lamps: %s", exc)
+    else:
+        if released:
+            log.info("Reflection Models: %d light(s) whose lamp was deleted set to strength 0",
+                     released)
+    try:
         n = lighting.sync_light_linking(in_render=in_render)
-    except (RuntimeError, ReferenceError, TypeError) as exc:
+    except failures as exc:
         log.warning("Reflection Models: could not update the light linking: %s", exc)
         return
-    if released:
-        log.info("Reflection Models: %d light(s) whose lamp was deleted set to strength 0",
-                 released)
     if n:
         log.info("Reflection Models: light linking updated (%d change(s))", n)
 
