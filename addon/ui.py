@@ -266,12 +266,15 @@ class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
     bl_idname = "node.rm_sync_light_linking"
     bl_label = "Repair Light Linking"
     bl_description = ("Exclude the bound lamps from every object that uses a hybrid material "
-                      "(and undo what is no longer needed); also done on render and save")
+                      "(and undo what is no longer needed), and set the lights of deleted lamps "
+                      "to strength 0; also done on render and save")
     bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, _context):
+        released = lighting.release_deleted_lamps()
         n = api.sync_light_linking()
-        self.report({'INFO'}, f"Light linking: {n} change(s)")
+        self.report({'INFO'}, f"Light linking: {n} change(s)"
+                    + (f"; {released} light(s) of deleted lamps set to 0" if released else ""))
         return {'FINISHED'}
 
 
@@ -513,6 +516,7 @@ def _draw_node(layout, context, node):
     if deleted:
         box.label(text="Lamp deleted for light " + ", ".join(map(str, deleted))
                   + ": lit as before until the next render or save sets it to 0", icon='ERROR')
+        box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     layer = getattr(context, "view_layer", None)
     unrendered = (lighting.unrendered_lamps(node, layer)
                   if mode != "path_traced" and layer is not None else [])
@@ -530,16 +534,16 @@ def _draw_node(layout, context, node):
             "bind again" if lamp.data.type in lighting.SUPPORTED_LIGHTS
             else "exact mode follows sun, point and spot lamps"), icon='ERROR')
     if mode == "hybrid":
-        _draw_hybrid_linking(box, context.scene, node, bound)
+        _draw_hybrid_linking(box, context.scene, node, bound, repair_shown=bool(deleted))
     if mode != "path_traced" and not native_build.has_raycast() \
             and api.rendering_backend(context.scene)[0] == "native":
         box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
 
 
-def _draw_hybrid_linking(box, scene, node, bound):
+def _draw_hybrid_linking(box, scene, node, bound, repair_shown=False):
     """The sidebar's labels on a hybrid node's light linking: what Blender's
     light linking cannot do as the mode wants, and what is out of date
-    (with the button that brings it up to date)."""
+    (with the button that brings it up to date, unless ``repair_shown``)."""
     partly = lighting.also_other_materials(node)
     if partly:
         box.label(text=f"{len(partly)} excluded object(s) also use other materials, "
@@ -557,7 +561,7 @@ def _draw_hybrid_linking(box, scene, node, bound):
     if stray:
         box.label(text="Bound to no node, yet not lighting the hybrid objects (a copy of a "
                   "bound lamp?): " + ", ".join(o.name for o in stray), icon='ERROR')
-    if missing or stray:
+    if (missing or stray) and not repair_shown:
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     from_library = lighting.linked_lamps(node)
     if from_library:

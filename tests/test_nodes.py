@@ -859,17 +859,28 @@ def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):
 def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
     """A light whose lamp was deleted keeps its last values until the next
     render or save sets it to 0 (tests/test_lighting.py); the sidebar says
-    so meanwhile."""
+    so meanwhile, with the Repair button, which does it at once."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm deleted")
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
     message = "Lamp deleted for light 1: lit as before until the next render or save sets it to 0"
+
+    def buttons():
+        layout = Recorder()
+        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
+        return [e for e in layout.of("operator") if "rm_sync_light_linking" in str(e)]
+
     try:
         api.bind_light(node, sun)
-        assert message not in sidebar_labels(bpy, ctx)
+        assert message not in sidebar_labels(bpy, ctx) and not buttons()
         bpy.data.objects.remove(sun)
-        assert message in sidebar_labels(bpy, ctx)
-        api.unbind_light(node)
-        assert message not in sidebar_labels(bpy, ctx)
+        assert message in sidebar_labels(bpy, ctx) and len(buttons()) == 1
+        strength = groups.input_socket(node, lighting.socket_name("light_strength", 1))
+        assert strength.default_value > 0
+        assert bpy.ops.node.rm_sync_light_linking() == {'FINISHED'}
+        assert message not in sidebar_labels(bpy, ctx) and not buttons()
+        assert strength.default_value == 0 and api.light_drivers(node) == []
     finally:
         api.unbind_light(node)
         bpy.data.scenes.remove(scene)
