@@ -284,17 +284,8 @@ def deleted_lamp_lights(node) -> list:
     they last gave it and lit the tiles as before (measured: Delete on
     the bound sun, and exact mode rendered a light where the scene had
     none).  :func:`release_deleted_lamps` takes them away."""
-    anim = node.id_data.animation_data
-    if anim is None:
-        return []
-    out = []
-    for k in range(1, light_count(node) + 1):
-        paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
-        targets = [var.targets[0].id for fc in anim.drivers if fc.data_path in paths
-                   for var in fc.driver.variables if var.type == 'TRANSFORMS']
-        if targets and all(t is None for t in targets):
-            out.append(k)
-    return out
+    return [k for k, targets in _lamp_targets(node).items()
+            if targets and all(t is None for t in targets)]
 
 
 def release_deleted_lamps() -> int:
@@ -370,22 +361,24 @@ def retyped_lamps(node) -> list:
     return out
 
 
+def _lamp_targets(node) -> dict:
+    """Light k -> the objects the transform variables of its drivers read
+    (None where that object was deleted), for each light of ``node``."""
+    anim = node.id_data.animation_data
+    fcurves = list(anim.drivers) if anim else []
+    out = {}
+    for k in range(1, light_count(node) + 1):
+        paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
+        out[k] = [var.targets[0].id for fc in fcurves if fc.data_path in paths
+                  for var in fc.driver.variables if var.type == 'TRANSFORMS']
+    return out
+
+
 def _bound_by_light(node) -> list:
     """``(k, lamp object)`` for each light k of ``node`` that follows a lamp."""
     out = []
-    for k in range(1, light_count(node) + 1):
-        found = None
-        paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
-        anim = node.id_data.animation_data
-        for fcurve in (anim.drivers if anim else ()):
-            if fcurve.data_path not in paths:
-                continue
-            for var in fcurve.driver.variables:
-                if var.type == 'TRANSFORMS' and var.targets[0].id is not None:
-                    found = var.targets[0].id
-                    break
-            if found is not None:
-                break
+    for k, targets in _lamp_targets(node).items():
+        found = next((t for t in targets if t is not None), None)
         if found is not None:
             out.append((k, found))
     return out
