@@ -606,11 +606,7 @@ def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extensi
         assert np.allclose(img[..., :3][m], expected[m], rtol=1e-4, atol=0), \
             float(np.max(np.abs(img[..., :3][m] / expected[m] - 1)))
     finally:
-        api.unbind_light(node)
-        bpy.data.scenes.remove(g.scene)
-        bpy.data.materials.remove(mat)
-        if copy is not None:
-            bpy.data.objects.remove(copy)
+        lighting.remove_binding(api, node, g.scene, mat, [copy])
 
 
 def test_the_demos_check_of_a_copied_lamp(api):
@@ -721,11 +717,8 @@ def test_a_lamp_linked_from_a_library_keeps_the_hybrid_light_linking_only_overri
         assert times_the_model(override, "override") == ((1.0, False) if keeps else (2.0, True))
         assert times_the_model(override.make_local(), "local") == (1.0, False)
     finally:
-        api.unbind_light(node)
-        bpy.data.scenes.remove(g.scene)
-        bpy.data.materials.remove(mat)
-        for obj in [o for o in bpy.data.objects if o.name == name]:
-            bpy.data.objects.remove(obj)
+        lighting.remove_binding(api, node, g.scene, mat,
+                                [o for o in bpy.data.objects if o.name == name])
         bpy.data.libraries.remove(bpy.data.libraries[library.name])
 
 
@@ -821,6 +814,4 @@ def test_a_deleted_bound_lamp_lights_nothing_from_the_next_render(bpy, installed
         assert linking.deleted_lamp_lights(node) == [] and api.light_drivers(node) == []
         assert not img[g.mask].any()
     finally:
-        api.unbind_light(node)
-        bpy.data.scenes.remove(g.scene)
-        bpy.data.materials.remove(mat)
+        lighting.remove_binding(api, node, g.scene, mat)

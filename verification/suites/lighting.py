@@ -201,6 +201,18 @@ def _instanced(scene, obj):
     return empty, source, copy
 
 
+def remove_binding(api, node, scene, material, made=()):
+    """Unbind ``node`` (the light linking its binding added goes), then
+    remove ``scene``, ``material`` and the data ``made`` (None skipped)."""
+    bpy = common.import_bpy()
+    api.unbind_light(node)
+    bpy.data.scenes.remove(scene)
+    bpy.data.materials.remove(material)
+    made = [data for data in made if data is not None]
+    if made:
+        bpy.data.batch_remove(made)
+
+
 def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
                       placement="material"):
     """The tiles are hidden from diffuse and glossy rays: Cycles traces a
@@ -245,11 +257,7 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
             for e, o in zip(coll.collection_objects, coll.objects))
         img = g.render()
     finally:
-        api.unbind_light(node)
-        bpy.data.scenes.remove(g.scene)
-        bpy.data.materials.remove(mat)
-        for data in made:
-            bpy.data.batch_remove([data])
+        remove_binding(api, node, g.scene, mat, made)
     expected = g.reference(model)
     worst, ratio = compare(img, expected, g.mask, eevee=eevee)
     key, label, within, reason = _measure(eevee)
@@ -303,11 +311,7 @@ def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
             worst, ratio = max(worst, w), max(ratio, r)
         shared = len(collections) == 1 and None not in collections
     finally:
-        api.unbind_light(node)
-        bpy.data.scenes.remove(g.scene)
-        bpy.data.materials.remove(mat)
-        if copy is not None:
-            bpy.data.objects.remove(copy)
+        remove_binding(api, node, g.scene, mat, [copy])
     key, label, within, reason = _measure(eevee)
     values = {"backend": backend, key: worst, "shared": shared, "n_lit": int(g.lit.sum())}
     return Check(name=f"a copy of the bound sun, unbound then bound too, {backend}",
