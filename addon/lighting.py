@@ -497,6 +497,12 @@ def _hybrid_bindings() -> list:
     return [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
 
 
+def _hybrid_lamps() -> set:
+    """The lamps hybrid nodes are bound to: the keys of :func:`needed_exclusions`,
+    read without any object's materials."""
+    return {lamp for _mat, _node, lamps in _hybrid_bindings() for lamp in lamps}
+
+
 def _exclusions(evaluate=True, hybrid=None):
     """``(need, unknown)``: lamp object -> the objects hybrid mode must
     exclude from it (every lamp a hybrid node is bound to, with no object
@@ -646,8 +652,9 @@ def sync_light_linking(*, in_render=False) -> int:
     hybrid = _hybrid_bindings()
     need, unknown = _exclusions("context" if in_render else True, hybrid)
     for lamp in stray_lamps(need):
-        lamp.light_linking.receiver_collection = None
-        changes += 1
+        if lamp.library is None:  # linked: read-only here
+            lamp.light_linking.receiver_collection = None
+            changes += 1
     if not in_render:
         changes += _share(need, hybrid)
     for lamp, objects in need.items():
@@ -702,13 +709,27 @@ def stray_lamps(need=None) -> list:
     are bound to no hybrid node: a copy of a bound lamp (Shift D, or copy
     and paste), which Blender gives the original's light linking, so that
     the hybrid objects get none of its light.  ``need``: from
-    :func:`needed_exclusions` (read without evaluating anything if None).
+    :func:`needed_exclusions`, whose lamps are the bound ones (if None,
+    the hybrid nodes' bound lamps are read: no object's materials).
     Sorted by name."""
     if need is None:
-        need = needed_exclusions(False)
+        need = _hybrid_lamps()
     return sorted((o for o in bpy.data.objects
                    if o.type == 'LIGHT' and o not in need
                    and _ours(o.light_linking.receiver_collection)), key=lambda o: o.name)
+
+
+def release_stray_lamps() -> int:
+    """Take the extension's collection from every lamp bound to no hybrid
+    node (:func:`stray_lamps`; a lamp linked from a library is left: it
+    cannot be changed here).  Reads only which lamps the hybrid nodes are
+    bound to, no object's materials: cheap enough for the viewport's update
+    after objects were added or removed (``ui.on_depsgraph_update_post``).
+    Returns how many lamps."""
+    lamps = [lamp for lamp in stray_lamps() if lamp.library is None]  # linked: read-only
+    for lamp in lamps:
+        lamp.light_linking.receiver_collection = None
+    return len(lamps)
 
 
 def unbound_sharers(need=None) -> list:
@@ -718,7 +739,7 @@ def unbound_sharers(need=None) -> list:
     and since the collection is the user's the extension leaves it.
     ``need`` as for :func:`stray_lamps`.  Sorted by name."""
     if need is None:
-        need = needed_exclusions(False)
+        need = _hybrid_lamps()
     out = []
     for obj in bpy.data.objects:
         coll = obj.light_linking.receiver_collection if obj.type == 'LIGHT' else None

@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Shader Editor user interface: the Add menu entries, the sidebar panel,
-their operators, and the load/render handlers that warn when a scene using
-the node groups cannot run OSL.
+their operators, and the handlers: on load and render, a warning when a
+scene using the node groups cannot run OSL; on render and save, the hybrid
+mode's light linking brought up to date; on the viewport's updates, copied
+and deleted bound lamps put right.
 
 Every class is registered from :data:`CLASSES` (plus the generated variant
 menus), and :func:`unregister` removes exactly what :func:`register` added.
@@ -634,6 +636,7 @@ def check_scene(scene) -> str | None:
 
 @persistent
 def on_load_post(*_args):
+    _objects_seen[0] = None  # another file: check at its first update
     for scene in bpy.data.scenes:
         message = check_scene(scene)
         if message:
@@ -653,30 +656,75 @@ def on_save_pre(*_args):
     _sync_light_linking()
 
 
+# the number of objects at the last check of :func:`on_depsgraph_update_post`
+_objects_seen = [None]
+# what a handler catches, so as never to stop a render, a save or an update
+_FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
+# :func:`_logged`'s arguments for the lights whose bound lamp was deleted
+_RELEASE_DELETED = (lambda: lighting.release_deleted_lamps(),
+                    "release the lights of deleted lamps",
+                    "%d light(s) whose lamp was deleted set to strength 0")
+
+
+@persistent
+def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
+    """In the viewport, after objects were added or removed (the number of
+    objects changed since the last check): a copy of a bound lamp, which
+    Blender gives the original's light linking, gets the extension's
+    collection taken away, and the lights of a deleted bound lamp are set
+    to 0, at once rather than at the next render or save (measured: until
+    then the copy lit the hybrid objects not at all, and exact mode lit
+    them from the deleted lamp).  Nothing else: the hybrid exclusions read
+    every object's materials, too slow for every update, and stay with
+    render, save and *Repair Light Linking*.  Skipped for a render's
+    depsgraph and while a render runs (its handlers have done it)."""
+    if getattr(depsgraph, "mode", 'VIEWPORT') != 'VIEWPORT':
+        return
+    is_job_running = getattr(bpy.app, "is_job_running", None)
+    if is_job_running is not None and is_job_running('RENDER'):
+        return
+    count = len(bpy.data.objects)
+    if count == _objects_seen[0]:
+        return
+    _objects_seen[0] = count
+    _logged(*_RELEASE_DELETED)
+    _logged(lambda: lighting.release_stray_lamps(), "update a copied lamp's light linking",
+            "%d lamp(s) bound to no node now light the hybrid objects")
+
+
+@persistent
+def on_undo_redo_post(*_args):
+    """Undo and redo bring back a state the viewport's handler may not have
+    put right (Duplicate's, before the handler ran), with as many objects
+    as it last saw: check again at the next update."""
+    _objects_seen[0] = None
+
+
+def _logged(step, failed: str, done: str) -> int:
+    """``step()``, a count of changes, logged (``done`` with the count, if
+    any); a failure is logged as what could not be done (``failed``) and
+    never stops a render, a save or an update."""
+    try:
+        n = step()
+    except _FAILURES as exc:
+        log.warning("Reflection Models: could not %s: %s", failed, exc)
+        return 0
+    if n:
+        log.info("Reflection Models: " + done, n)
+    return n
+
+
 def _sync_light_linking(in_render=False):
     """Hybrid mode's light linking for objects that got or lost a hybrid
-    material since, and the lights whose bound lamp was deleted (never
-    lets a failure stop a render or a save)."""
-    failures = (AttributeError, RuntimeError, ReferenceError, TypeError)
-    try:
-        released = lighting.release_deleted_lamps()
-    except failures as exc:
-        log.warning("Reflection Models: could not release the lights of deleted lamps: %s", exc)
-    else:
-        if released:
-            log.info("Reflection Models: %d light(s) whose lamp was deleted set to strength 0",
-                     released)
-    try:
-        n = lighting.sync_light_linking(in_render=in_render)
-    except failures as exc:
-        log.warning("Reflection Models: could not update the light linking: %s", exc)
-        return
-    if n:
-        log.info("Reflection Models: light linking updated (%d change(s))", n)
+    material since, and the lights whose bound lamp was deleted."""
+    _logged(*_RELEASE_DELETED)
+    _logged(lambda: lighting.sync_light_linking(in_render=in_render),
+            "update the light linking", "light linking updated (%d change(s))")
 
 
 HANDLERS = (("load_post", on_load_post), ("render_init", on_render_init),
-            ("save_pre", on_save_pre))
+            ("save_pre", on_save_pre), ("depsgraph_update_post", on_depsgraph_update_post),
+            ("undo_post", on_undo_redo_post), ("redo_post", on_undo_redo_post))
 
 CLASSES = (
     NODE_OT_rm_add_model,

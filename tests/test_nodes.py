@@ -1122,16 +1122,47 @@ def _registered_by(bpy, prefix):
              if getattr(getattr(bpy.types, name), "__module__", "").startswith(prefix)]
     draw_funcs = bpy.types.NODE_MT_shader_node_add_all._dyn_ui_initialize()
     found += [f for f in draw_funcs if getattr(f, "__module__", "").startswith(prefix)]
-    for name in ("load_post", "render_init"):
+    for name in ("load_post", "render_init", "save_pre", "depsgraph_update_post", "undo_post",
+                 "redo_post"):
         found += [h for h in getattr(bpy.app.handlers, name)
                   if getattr(h, "__module__", "").startswith(prefix)]
     return found
 
 
+def test_a_failing_step_of_a_handler_stops_neither_its_other_steps_nor_the_render(
+        ui, bpy, monkeypatch, caplog):
+    """Each handler's steps run each on its own: with the release of deleted
+    lamps' lights raising (a read-only property raises AttributeError), the
+    render, save and viewport handlers still run their next step (the
+    light linking's update, the copied lamps' release), return normally,
+    and log what could not be done."""
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    ran = []
+
+    def fail():
+        raise AttributeError("read-only here")
+
+    monkeypatch.setattr(lighting, "release_deleted_lamps", fail)
+    monkeypatch.setattr(lighting, "sync_light_linking",
+                        lambda **_kwargs: ran.append("sync") or 0)
+    monkeypatch.setattr(lighting, "release_stray_lamps", lambda: ran.append("stray") or 0)
+    with caplog.at_level(logging.WARNING):
+        ui.on_render_init(bpy.context.scene)
+        ui.on_save_pre()
+        ui.on_undo_redo_post()  # so that the viewport's handler looks
+        ui.on_depsgraph_update_post(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
+    assert ran == ["sync", "sync", "stray"]
+    failed = [r for r in caplog.records if "could not release the lights of deleted lamps: "
+              "read-only here" in r.getMessage()]
+    assert len(failed) == 3
+
+
 def test_unregister_leaves_no_classes_menu_entries_or_handlers(installed_extension, bpy):
     registered = _registered_by(bpy, installed_extension)
     assert {"NODE_OT_rm_add_model", "NODE_MT_rm_add", "NODE_PT_rm_sidebar"} <= set(registered)
-    assert any(callable(x) and x.__name__ == "on_load_post" for x in registered)
+    for handler in ("on_load_post", "on_render_init", "on_save_pre", "on_depsgraph_update_post",
+                    "on_undo_redo_post"):
+        assert any(callable(x) and x.__name__ == handler for x in registered), handler
     bpy_env.disable_extension(installed_extension)
     try:
         assert _registered_by(bpy, installed_extension) == []

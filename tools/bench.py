@@ -14,7 +14,7 @@ Prints tables; asserts nothing (speed is measured here, never in tests):
   native nodes built in nested parts and in one tree
   (:mod:`verification.bench.build`);
 * linking: the hybrid mode's light linking (binding, an update, the
-  sidebar's check) with 200 to 10,000 objects
+  sidebar's check, the viewport's handler) with 200 to 10,000 objects
   (:mod:`verification.bench.linking`);
 * eevee: EEVEE's shader compile time per model against a Principled BSDF,
   the peak memory of a process rendering each model (EEVEE, Cycles with OSL
