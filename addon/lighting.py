@@ -497,6 +497,19 @@ def _hybrid_bindings() -> list:
     return [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
 
 
+def hybrid_material_pointers() -> set:
+    """The pointers of the materials whose hybrid nodes are bound to a lamp
+    (whose objects the light linking excludes)."""
+    return {mat.as_pointer() for mat, _node, lamps in _hybrid_bindings() if lamps}
+
+
+def slot_materials(obj) -> tuple:
+    """The pointers of the materials in ``obj``'s slots (0 for an empty
+    slot), to compare between the viewport's updates."""
+    return tuple(slot.material.as_pointer() if slot.material is not None else 0
+                 for slot in getattr(obj, "material_slots", ()))
+
+
 def _hybrid_lamps() -> set:
     """The lamps hybrid nodes are bound to: the keys of :func:`needed_exclusions`,
     read without any object's materials."""
@@ -634,7 +647,7 @@ def _share(need, hybrid) -> int:
     return changes
 
 
-def sync_light_linking(*, in_render=False) -> int:
+def sync_light_linking(*, handler=None) -> int:
     """Make the light linking match the hybrid nodes: every object using a
     hybrid material excluded from each lamp its node is bound to, lamps
     bound by the same hybrid materials sharing one collection
@@ -644,18 +657,25 @@ def sync_light_linking(*, in_render=False) -> int:
     original's collection) and removed once no lamp uses it.  Returns the
     number of changes.
 
-    ``in_render``: called from a render handler, where making or removing a
-    datablock crashes Blender (measured): only objects are linked and
-    unlinked, and lamps taken from collections, then; the collections are
-    made and shared when a lamp is bound, and on save."""
+    ``handler``: None, or the handler that calls it: "render", where
+    making or removing a datablock crashes Blender (measured), and
+    "update", the viewport's depsgraph update, which evaluates nothing
+    (the depsgraphs as Blender keeps them) and makes no datablock either.
+    In both only objects are linked and unlinked, and lamps taken from
+    collections; the collections are made and shared when a lamp is bound,
+    and on save."""
+    if handler not in (None, "render", "update"):
+        raise ValueError(f"handler={handler!r}; allowed: None, 'render', 'update'")
+    in_handler = handler is not None
     changes = 0
     hybrid = _hybrid_bindings()
-    need, unknown = _exclusions("context" if in_render else True, hybrid)
+    need, unknown = _exclusions({None: True, "render": "context", "update": False}[handler],
+                                hybrid)
     for lamp in stray_lamps(need):
         if lamp.library is None:  # linked: read-only here
             lamp.light_linking.receiver_collection = None
             changes += 1
-    if not in_render:
+    if not in_handler:
         changes += _share(need, hybrid)
     for lamp, objects in need.items():
         coll = lamp.light_linking.receiver_collection
@@ -695,7 +715,7 @@ def sync_light_linking(*, in_render=False) -> int:
         if keep != list(coll[ADDED]):
             coll[ADDED] = keep
         still_bound = any(lamp in need for lamp in lamps)
-        if not keep and coll.get(MADE) and not still_bound and not in_render:
+        if not keep and coll.get(MADE) and not still_bound and not in_handler:
             for lamp in lamps:
                 lamp.light_linking.receiver_collection = None
             if not coll.objects and not coll.children:

@@ -636,7 +636,7 @@ def check_scene(scene) -> str | None:
 
 @persistent
 def on_load_post(*_args):
-    _objects_seen[0] = None  # another file: check at its first update
+    _objects_seen[0] = _slots_seen[0] = None  # another file: look at its first update
     for scene in bpy.data.scenes:
         message = check_scene(scene)
         if message:
@@ -656,8 +656,11 @@ def on_save_pre(*_args):
     _sync_light_linking()
 
 
-# the number of objects at the last check of :func:`on_depsgraph_update_post`
+# what :func:`on_depsgraph_update_post` last saw: the number of objects, and
+# object pointer -> its slots' materials (``lighting.slot_materials``); None:
+# not read yet (since the extension was enabled, a file was opened, an undo or a redo)
 _objects_seen = [None]
+_slots_seen = [None]
 # what a handler catches, so as never to stop a render, a save or an update
 _FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
 # :func:`_logged`'s arguments for the lights whose bound lamp was deleted
@@ -668,36 +671,81 @@ _RELEASE_DELETED = (lambda: lighting.release_deleted_lamps(),
 
 @persistent
 def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
-    """In the viewport, after objects were added or removed (the number of
-    objects changed since the last check): a copy of a bound lamp, which
-    Blender gives the original's light linking, gets the extension's
-    collection taken away, and the lights of a deleted bound lamp are set
-    to 0, at once rather than at the next render or save (measured: until
-    then the copy lit the hybrid objects not at all, and exact mode lit
-    them from the deleted lamp).  Nothing else: the hybrid exclusions read
-    every object's materials, too slow for every update, and stay with
-    render, save and *Repair Light Linking*.  Skipped for a render's
-    depsgraph and while a render runs (its handlers have done it)."""
+    """The viewport's updates, so that what it shows is put right at once
+    rather than at the next render or save (measured before: until then a
+    copy of a bound lamp lit the hybrid objects not at all, exact mode lit
+    them from a deleted lamp, and an object given a hybrid material was lit
+    twice, by the closure and by the exact evaluation):
+
+    - after objects were added or removed (their number changed): a copy
+      of a bound lamp, which Blender gives the original's light linking,
+      has the extension's collection taken away, and the lights of a
+      deleted bound lamp are set to 0;
+    - when an object's slots got or lost a material with a bound hybrid
+      node (a new object with one, Shift D of one, a slot changed), and at
+      the first update after the extension was enabled, a file opened, an
+      undo or a redo: the hybrid exclusions brought up to date, reading
+      the depsgraphs Blender keeps (nothing evaluated) and linking and
+      unlinking objects only.
+
+    An update that does not update the scene (moving objects, editing
+    them) costs one question to the depsgraph; one that does, a count of
+    the objects and a look at the updated objects' slots (``make bench``).
+    Skipped for a render's depsgraph and while a render runs (its handlers
+    have done it)."""
     if getattr(depsgraph, "mode", 'VIEWPORT') != 'VIEWPORT':
         return
     is_job_running = getattr(bpy.app, "is_job_running", None)
     if is_job_running is not None and is_job_running('RENDER'):
         return
-    count = len(bpy.data.objects)
-    if count == _objects_seen[0]:
+    updated = getattr(depsgraph, "id_type_updated", None)
+    if updated is not None and not updated('SCENE') and _slots_seen[0] is not None:
+        # a transform or an edit of existing data: adding or removing an object and changing
+        # a slot rebuild the depsgraph's relations, which updates the scene (measured)
         return
-    _objects_seen[0] = count
-    _logged(*_RELEASE_DELETED)
-    _logged(lambda: lighting.release_stray_lamps(), "update a copied lamp's light linking",
-            "%d lamp(s) bound to no node now light the hybrid objects")
+    count = len(bpy.data.objects)
+    if count != _objects_seen[0]:
+        _objects_seen[0] = count
+        _logged(*_RELEASE_DELETED)
+        _logged(lambda: lighting.release_stray_lamps(), "update a copied lamp's light linking",
+                "%d lamp(s) bound to no node now light the hybrid objects")
+    try:
+        changed = _slots_changed(depsgraph)
+    except _FAILURES as exc:
+        log.warning("Reflection Models: could not read the objects' material slots: %s", exc)
+        return
+    if changed:
+        _update_linking("update")
+
+
+def _slots_changed(depsgraph) -> bool:
+    """Whether an object's slots got or lost a material with a bound hybrid
+    node since the last update (every object read when nothing was yet,
+    and then True if any hybrid node is bound)."""
+    seen = _slots_seen[0]
+    if seen is None:
+        _slots_seen[0] = {o.as_pointer(): lighting.slot_materials(o) for o in bpy.data.objects}
+        return bool(lighting.hybrid_material_pointers())
+    changed = set()
+    for update in getattr(depsgraph, "updates", ()):
+        if not (update.is_updated_shading or update.is_updated_geometry):
+            continue  # a transform: no slot changed
+        obj = update.id.original
+        if not isinstance(obj, bpy.types.Object):
+            continue
+        now, before = lighting.slot_materials(obj), seen.get(obj.as_pointer(), ())
+        if now != before:
+            seen[obj.as_pointer()] = now
+            changed |= set(now) ^ set(before)
+    return bool(changed) and bool(changed & lighting.hybrid_material_pointers())
 
 
 @persistent
 def on_undo_redo_post(*_args):
     """Undo and redo bring back a state the viewport's handler may not have
-    put right (Duplicate's, before the handler ran), with as many objects
-    as it last saw: check again at the next update."""
-    _objects_seen[0] = None
+    put right (Duplicate's, stored before the handler ran), with as many
+    objects as it last saw: look again at the next update."""
+    _objects_seen[0] = _slots_seen[0] = None
 
 
 def _logged(step, failed: str, done: str) -> int:
@@ -718,7 +766,13 @@ def _sync_light_linking(in_render=False):
     """Hybrid mode's light linking for objects that got or lost a hybrid
     material since, and the lights whose bound lamp was deleted."""
     _logged(*_RELEASE_DELETED)
-    _logged(lambda: lighting.sync_light_linking(in_render=in_render),
+    _update_linking("render" if in_render else None)
+
+
+def _update_linking(handler=None):
+    """The hybrid exclusions brought up to date (``lighting.sync_light_linking``
+    with ``handler``), logged."""
+    _logged(lambda: lighting.sync_light_linking(handler=handler),
             "update the light linking", "light linking updated (%d change(s))")
 
 

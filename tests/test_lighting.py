@@ -573,23 +573,23 @@ def _installed_lambert_gonio(installed_extension, name, mode):
 
 
 class _ViewportHandlerOff:
-    """The installed extension's viewport handler (``on_depsgraph_update_post``)
-    taken out for a ``with`` block, so that a test sees what the render
-    handler alone does: a script that copies or deletes a lamp and renders
-    at once runs no viewport update in between."""
+    """The installed extension's viewport handler (``on_depsgraph_update_post``,
+    if it is registered) taken out for a ``with`` block, so that a test sees
+    what the render handler or a sync alone does: a script that copies or
+    deletes a lamp and renders at once runs no viewport update between."""
 
-    def __init__(self, bpy, installed_extension):
-        import importlib
-        self.bpy = bpy
-        self.func = importlib.import_module(installed_extension + ".ui").on_depsgraph_update_post
+    def __init__(self, bpy):
+        self.handlers = bpy.app.handlers.depsgraph_update_post
+        self.taken = []
 
     def __enter__(self):
-        handlers = self.bpy.app.handlers.depsgraph_update_post
-        assert self.func in handlers
-        handlers.remove(self.func)
+        self.taken = [h for h in self.handlers
+                      if getattr(h, "__name__", "") == "on_depsgraph_update_post"]
+        for handler in self.taken:
+            self.handlers.remove(handler)
 
     def __exit__(self, *_exc):
-        self.bpy.app.handlers.depsgraph_update_post.append(self.func)
+        self.handlers.extend(self.taken)
 
 
 def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extension):
@@ -609,7 +609,7 @@ def test_a_copy_of_a_bound_lamp_lights_the_hybrid_objects(bpy, installed_extensi
     copy = None
     try:
         api.bind_light(node, g.sun)
-        with _ViewportHandlerOff(bpy, installed_extension):
+        with _ViewportHandlerOff(bpy):
             copy = g.sun.copy()
             g.scene.collection.objects.link(copy)
             assert copy.light_linking.receiver_collection == \
@@ -806,11 +806,11 @@ def test_an_object_deleted_from_its_scene_is_let_go(api, bpy):
         api.bind_light(node, sun)
         coll = sun.light_linking.receiver_collection
         assert set(coll.objects) == {gone, kept}
-        with bpy.context.temp_override(scene=scene, selected_objects=[gone],
-                                       active_object=gone):
+        with _ViewportHandlerOff(bpy), bpy.context.temp_override(
+                scene=scene, selected_objects=[gone], active_object=gone):
             assert bpy.ops.object.delete() == {'FINISHED'}
-        assert not gone.users_scene and gone in set(coll.objects)  # held by the collection
-        assert api.sync_light_linking() == 1
+            assert not gone.users_scene and gone in set(coll.objects)  # held by the collection
+            assert api.sync_light_linking() == 1
         assert set(coll.objects) == {kept} and gone.users == 0
     finally:
         api.unbind_light(node)
@@ -829,7 +829,7 @@ def test_a_deleted_bound_lamp_lights_nothing_from_the_next_render(bpy, installed
     try:
         api.bind_light(node, g.sun)
         assert g.render()[g.lit].min() > 0
-        with _ViewportHandlerOff(bpy, installed_extension):
+        with _ViewportHandlerOff(bpy):
             with bpy.context.temp_override(scene=g.scene, selected_objects=[g.sun],
                                            active_object=g.sun):
                 assert bpy.ops.object.delete() == {'FINISHED'}
@@ -906,19 +906,18 @@ def test_after_undo_the_viewport_checks_the_copied_lamps_again(bpy, installed_ex
     try:
         api.bind_light(node, g.sun)
         bpy.context.view_layer.update()
-        with _ViewportHandlerOff(bpy, installed_extension):
+        with _ViewportHandlerOff(bpy):
             copy = g.sun.copy()
             g.scene.collection.objects.link(copy)
             name = copy.name
             bpy.context.view_layer.update()
             assert bpy.ops.ed.undo_push(message="rm copied lamp") == {'FINISHED'}
         assert copy.light_linking.receiver_collection is not None
-        copy.update_tag()
+        bpy.context.scene.update_tag()  # an update of the scene, as adding the copy made
         bpy.context.view_layer.update()  # one object more than the handler last saw
         assert copy.light_linking.receiver_collection is None
         assert bpy.ops.ed.undo_push(message="rm copied lamp put right") == {'FINISHED'}
         assert bpy.ops.ed.undo() == {'FINISHED'}  # the copy excluding again, as many objects
-        bpy.data.objects[name].update_tag()
         bpy.context.view_layer.update()
         assert bpy.data.objects[name].light_linking.receiver_collection is None
     finally:
@@ -926,3 +925,54 @@ def test_after_undo_the_viewport_checks_the_copied_lamps_again(bpy, installed_ex
         node = next(n for n in mat.node_tree.nodes if n.get("rm_mode") == "hybrid")
         made = [bpy.data.objects[name]] if name in bpy.data.objects else []
         lighting.remove_binding(api, node, bpy.data.scenes["rm_vp_undo"], mat, made)
+
+
+def test_the_viewport_excludes_objects_given_a_hybrid_material_at_once(bpy,
+                                                                       installed_extension):
+    """Without the viewport's handler an object given a hybrid material (a
+    slot changed, a new object with it, Shift D of one) was lit twice in
+    the viewport, by the closure and by the exact evaluation, until the
+    next render or save; one that lost it stayed excluded, unlit by the
+    bound lamp.  The handler brings the exclusions up to date at the view
+    layer's next update: the objects' entries in the bound sun's
+    collection are read after each step, with no render, save or sync."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    scene, sun, mat, node, (obj, other) = _two_hybrid_objects(api, bpy, "rm_vp_slots")
+    plain = _material("rm_vp_slots_plain")
+    layer = scene.view_layers[0]
+    made = []
+
+    def excluded(target):
+        coll = sun.light_linking.receiver_collection
+        states = {member.as_pointer(): entry.light_linking.link_state
+                  for entry, member in zip(coll.collection_objects, coll.objects)}
+        return states.get(target.as_pointer()) == 'EXCLUDE'
+
+    try:
+        api.bind_light(node, sun)
+        layer.update()
+        assert excluded(obj) and excluded(other)
+        other.material_slots[0].material = plain
+        layer.update()
+        assert excluded(obj) and not excluded(other)
+        other.material_slots[0].material = mat
+        layer.update()
+        assert excluded(other)
+        made.append(_mesh_object(bpy, scene, "rm_vp_slots_new", mat))
+        layer.update()
+        assert excluded(made[0])
+        before = set(bpy.data.objects)
+        with bpy.context.temp_override(scene=scene, view_layer=layer, selected_objects=[obj],
+                                       selected_editable_objects=[obj], active_object=obj):
+            assert bpy.ops.object.duplicate() == {'FINISHED'}
+        made += [o for o in bpy.data.objects if o not in before]
+        assert len(made) == 2
+        layer.update()
+        assert excluded(made[1])
+    finally:
+        api.unbind_light(node)
+        bpy.data.batch_remove(made + [o.data for o in made])
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+        bpy.data.materials.remove(plain)
