@@ -661,6 +661,7 @@ def on_save_pre(*_args):
 # not read yet (since the extension was enabled, a file was opened, an undo or a redo)
 _objects_seen = [None]
 _slots_seen = [None]
+_hybrid_seen = [set()]  # the pointers of the materials with a bound hybrid node
 # what a handler catches, so as never to stop a render, a save or an update
 _FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
 # :func:`_logged`'s arguments for the lights whose bound lamp was deleted
@@ -682,15 +683,18 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
       has the extension's collection taken away, and the lights of a
       deleted bound lamp are set to 0;
     - when an object's slots got or lost a material with a bound hybrid
-      node (a new object with one, Shift D of one, a slot changed), and at
-      the first update after the extension was enabled, a file opened, an
-      undo or a redo: the hybrid exclusions brought up to date, reading
-      the depsgraphs Blender keeps (nothing evaluated) and linking and
-      unlinking objects only.
+      node (a new object with one, Shift D of one, a slot changed), when
+      the materials with one changed (a hybrid node deleted, a material
+      removed), and at the first update after the extension was enabled,
+      a file opened, an undo or a redo: the hybrid exclusions brought up
+      to date, reading the depsgraphs Blender keeps (nothing evaluated)
+      and linking and unlinking objects only.
 
-    An update that does not update the scene (moving objects, editing
-    them) costs one question to the depsgraph; one that does, a count of
-    the objects and a look at the updated objects' slots (``make bench``).
+    An update that does not update the scene (moving objects) costs one
+    question to the depsgraph; one that does, a count of the objects and
+    a look at the updated objects' slots, and one of a material or node
+    tree (a node edited) a look at the materials' hybrid nodes
+    (``make bench``).
     Skipped for a render's depsgraph and while a render runs (its handlers
     have done it)."""
     if getattr(depsgraph, "mode", 'VIEWPORT') != 'VIEWPORT':
@@ -710,7 +714,7 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         _logged(lambda: lighting.release_stray_lamps(), "update a copied lamp's light linking",
                 "%d lamp(s) bound to no node now light the hybrid objects")
     try:
-        changed = _slots_changed(depsgraph)
+        changed = _exclusions_changed(depsgraph)
     except _FAILURES as exc:
         log.warning("Reflection Models: could not read the objects' material slots: %s", exc)
         return
@@ -718,14 +722,18 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         _update_linking("update")
 
 
-def _slots_changed(depsgraph) -> bool:
-    """Whether an object's slots got or lost a material with a bound hybrid
-    node since the last update (every object read when nothing was yet,
-    and then True if any hybrid node is bound)."""
+def _exclusions_changed(depsgraph) -> bool:
+    """Whether the hybrid exclusions may need an update since the last
+    update: an object's slots got or lost a material with a bound hybrid
+    node, or the set of those materials changed (a hybrid node deleted, a
+    material removed: read when a material or node tree was updated).
+    When nothing was read yet, every object is read, and True if any
+    hybrid node is bound."""
     seen = _slots_seen[0]
     if seen is None:
         _slots_seen[0] = {o.as_pointer(): lighting.slot_materials(o) for o in bpy.data.objects}
-        return bool(lighting.hybrid_material_pointers())
+        _hybrid_seen[0] = lighting.hybrid_material_pointers()
+        return bool(_hybrid_seen[0])
     changed = set()
     for update in getattr(depsgraph, "updates", ()):
         if not (update.is_updated_shading or update.is_updated_geometry):
@@ -737,7 +745,13 @@ def _slots_changed(depsgraph) -> bool:
         if now != before:
             seen[obj.as_pointer()] = now
             changed |= set(now) ^ set(before)
-    return bool(changed) and bool(changed & lighting.hybrid_material_pointers())
+    updated = getattr(depsgraph, "id_type_updated", None)
+    if not changed and updated is not None and not (updated('MATERIAL')
+                                                    or updated('NODETREE')):
+        return False
+    before, now = _hybrid_seen[0], lighting.hybrid_material_pointers()
+    _hybrid_seen[0] = now
+    return now != before or bool(changed & (now | before))
 
 
 @persistent

@@ -976,3 +976,30 @@ def test_the_viewport_excludes_objects_given_a_hybrid_material_at_once(bpy,
         bpy.data.scenes.remove(scene)
         bpy.data.materials.remove(mat)
         bpy.data.materials.remove(plain)
+
+
+def test_the_viewport_lets_go_of_a_deleted_hybrid_nodes_objects_at_once(bpy,
+                                                                        installed_extension):
+    """Deleting a bound hybrid node in the node editor left its material's
+    objects excluded from the lamp, unlit by it, until the next render or
+    save.  The viewport's handler reads the materials with a bound hybrid
+    node when a material or node tree was updated: at the view layer's
+    next update the objects are let go."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    scene, sun, mat, node, objects = _two_hybrid_objects(api, bpy, "rm_vp_node")
+    layer = scene.view_layers[0]
+    try:
+        api.bind_light(node, sun)
+        layer.update()
+        coll = sun.light_linking.receiver_collection
+        assert set(coll.objects) == set(objects)
+        mat.node_tree.nodes.remove(node)
+        layer.update()
+        assert not coll.objects
+        assert api.sync_light_linking() >= 1  # outside a handler: the collection goes too
+        assert sun.light_linking.receiver_collection is None
+    finally:
+        bpy.data.batch_remove(list(objects) + [o.data for o in objects] + [sun])
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
