@@ -361,6 +361,27 @@ def retyped_lamps(node) -> list:
     return out
 
 
+def rebind_retyped_lamps() -> int:
+    """Bind again, light by light, each bound lamp whose type changed since
+    binding to another type exact mode follows (:func:`retyped_lamps`: a
+    sun turned into a spot lamp, say): its drivers made for its new type,
+    as binding it would make them.  An area lamp is left as it is (exact
+    mode follows none; the sidebar names it).  In every material's RM
+    nodes but linked ones.  Returns how many lights."""
+    count = 0
+    for mat in bpy.data.materials:
+        for node in groups.rm_nodes_in(mat.node_tree):
+            if node.id_data.library is not None:  # linked: read-only here
+                continue
+            retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)
+                       if lamp.data.type in SUPPORTED_LIGHTS}
+            for k, lamp in _bound_by_light(node):
+                if lamp.as_pointer() in retyped:
+                    _bind_one(node, k, lamp)
+                    count += 1
+    return count
+
+
 def _lamp_targets(node) -> dict:
     """Light k -> the objects the transform variables of its drivers read
     (None where that object was deleted), for each light of ``node``."""

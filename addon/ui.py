@@ -268,15 +268,19 @@ class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
     bl_idname = "node.rm_sync_light_linking"
     bl_label = "Repair Light Linking"
     bl_description = ("Exclude the bound lamps from every object that uses a hybrid material "
-                      "(and undo what is no longer needed), and set the lights of deleted lamps "
-                      "to strength 0; also done on render and save")
+                      "(and undo what is no longer needed), set the lights of deleted lamps to "
+                      "strength 0, and bind again lamps whose type changed; also done on "
+                      "render and save")
     bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, _context):
         released = lighting.release_deleted_lamps()
+        rebound = lighting.rebind_retyped_lamps()
         n = api.sync_light_linking()
         self.report({'INFO'}, f"Light linking: {n} change(s)"
-                    + (f"; {released} light(s) of deleted lamps set to 0" if released else ""))
+                    + (f"; {released} light(s) of deleted lamps set to 0" if released else "")
+                    + (f"; {rebound} light(s) bound again for their lamp's new type"
+                       if rebound else ""))
         return {'FINISHED'}
 
 
@@ -517,7 +521,8 @@ def _draw_node(layout, context, node):
     deleted = lighting.deleted_lamp_lights(node) if mode != "path_traced" else []
     if deleted:
         box.label(text="Lamp deleted for light " + ", ".join(map(str, deleted))
-                  + ": lit as before until the next render or save sets it to 0", icon='ERROR')
+                  + ": lit as before until the next update, render or save sets it to 0",
+                  icon='ERROR')
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     layer = getattr(context, "view_layer", None)
     unrendered = (lighting.unrendered_lamps(node, layer)
@@ -533,10 +538,15 @@ def _draw_node(layout, context, node):
     retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
     for lamp, was in retyped:
         box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (
-            "bind again" if lamp.data.type in lighting.SUPPORTED_LIGHTS
+            "bound again at the next update, render or save"
+            if lamp.data.type in lighting.SUPPORTED_LIGHTS
             else "exact mode follows sun, point and spot lamps"), icon='ERROR')
+    rebind = any(lamp.data.type in lighting.SUPPORTED_LIGHTS for lamp, _was in retyped)
+    if rebind and not deleted:
+        box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     if mode == "hybrid":
-        _draw_hybrid_linking(box, context.scene, node, bound, repair_shown=bool(deleted))
+        _draw_hybrid_linking(box, context.scene, node, bound,
+                             repair_shown=bool(deleted) or rebind)
     if mode != "path_traced" and not native_build.has_raycast() \
             and api.rendering_backend(context.scene)[0] == "native":
         box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
@@ -668,6 +678,10 @@ _FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
 _RELEASE_DELETED = (lambda: lighting.release_deleted_lamps(),
                     "release the lights of deleted lamps",
                     "%d light(s) whose lamp was deleted set to strength 0")
+# and for the lamps whose type changed since binding
+_REBIND_RETYPED = (lambda: lighting.rebind_retyped_lamps(),
+                   "bind again a lamp whose type changed",
+                   "%d light(s) bound again for their lamp's new type")
 
 
 @persistent
@@ -675,9 +689,12 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     """The viewport's updates, so that what it shows is put right at once
     rather than at the next render or save (measured before: until then a
     copy of a bound lamp lit the hybrid objects not at all, exact mode lit
-    them from a deleted lamp, and an object given a hybrid material was lit
-    twice, by the closure and by the exact evaluation):
+    them from a deleted lamp and took a retyped lamp as its old type, and an
+    object given a hybrid material was lit twice, by the closure and by the
+    exact evaluation):
 
+    - after a light was edited: a bound lamp whose type changed (a sun
+      made a spot lamp) bound again for its new type;
     - after objects were added or removed (their number changed): a copy
       of a bound lamp, which Blender gives the original's light linking,
       has the extension's collection taken away, and the lights of a
@@ -707,6 +724,8 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         # a transform or an edit of existing data: adding or removing an object and changing
         # a slot rebuild the depsgraph's relations, which updates the scene (measured)
         return
+    if updated is None or updated('LIGHT'):
+        _logged(*_REBIND_RETYPED)
     count = len(bpy.data.objects)
     if count != _objects_seen[0]:
         _objects_seen[0] = count
@@ -778,8 +797,11 @@ def _logged(step, failed: str, done: str) -> int:
 
 def _sync_light_linking(in_render=False):
     """Hybrid mode's light linking for objects that got or lost a hybrid
-    material since, and the lights whose bound lamp was deleted."""
+    material since, the lights whose bound lamp was deleted, and those
+    whose lamp's type changed (bound again: measured in a render handler,
+    the render then the same as after binding by hand, to the bit)."""
     _logged(*_RELEASE_DELETED)
+    _logged(*_REBIND_RETYPED)
     _update_linking("render" if in_render else None)
 
 

@@ -1003,3 +1003,48 @@ def test_the_viewport_lets_go_of_a_deleted_hybrid_nodes_objects_at_once(bpy,
         bpy.data.batch_remove(list(objects) + [o.data for o in objects] + [sun])
         bpy.data.scenes.remove(scene)
         bpy.data.materials.remove(mat)
+
+
+def _driver_signature(api, node):
+    """What binding made on ``node``'s lights: each driver's path, index
+    and expression, sorted."""
+    return sorted((fc.data_path, fc.array_index, fc.driver.expression)
+                  for fc in api.light_drivers(node))
+
+
+def test_a_bound_lamp_whose_type_changed_is_bound_again(bpy, installed_extension):
+    """Binding makes drivers for the lamp's type (a sun's direction, a
+    point lamp's position, a spot's cone); a lamp whose type changed
+    afterwards was taken as the old type (measured: a sun made a point
+    lamp rendered as the sun).  The viewport's handler binds it again
+    after the light was edited: the node's drivers are then those binding
+    by hand makes.  With the viewport's handler out (a script that changes
+    the type and renders at once) the render handler does it: the render
+    is the same as after binding by hand (1e-6 relative: the same scene
+    and drivers, float32)."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_retype",
+                                                          "exact")
+    try:
+        api.bind_light(node, g.sun)
+        g.sun.data.type = 'SPOT'
+        g.scene.view_layers[0].update()
+        assert linking.retyped_lamps(node) == []
+        rebound = _driver_signature(api, node)
+        api.bind_light(node, g.sun)
+        assert _driver_signature(api, node) == rebound
+        import importlib
+        groups = importlib.import_module(installed_extension + ".groups")
+        assert groups.input_socket(node, "spot").default_value == 1.0
+        with _ViewportHandlerOff(bpy):
+            g.sun.data.type = 'POINT'
+            g.sun.location = (0.5, 0.3, 2.0)
+            g.sun.data.energy = 300.0
+            assert linking.retyped_lamps(node) == [(g.sun, 'SPOT')]
+            img = g.render()
+            assert linking.retyped_lamps(node) == []
+            api.bind_light(node, g.sun)
+            expected = g.render()
+        assert (expected[..., :3] > 0).any(axis=-1).sum() > 20  # the point lamp lights tiles
+        assert np.allclose(img, expected, rtol=1e-6, atol=0)
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat)

@@ -767,11 +767,17 @@ def _remove_hybrid_scene(bpy, api, node, scene, mat, made):
 
 def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
     """Binding fixes whether light k is a sun, a point or a spot lamp; a
-    lamp whose type changes afterwards is still taken as the type it had.
-    The sidebar names it until it is bound again (an area lamp cannot be)."""
+    lamp whose type changes afterwards is taken as the type it had until
+    the viewport's next update, a render, a save or *Repair Light Linking*
+    binds it again (tests/test_lighting.py).  Until then the sidebar names
+    it and offers *Repair Light Linking*, which binds it again (pressed
+    through ``bpy.ops``); an area lamp cannot be bound, and stays named.
+    The viewport's handler is out: no update here may bind it first."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm retyped")
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    handlers = bpy.app.handlers.depsgraph_update_post
+    handlers.remove(ui.on_depsgraph_update_post)
 
     def said():
         return [t for t in sidebar_labels(bpy, ctx) if t.startswith("rm retyped sun:")]
@@ -781,15 +787,21 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
         api.bind_light(node, sun)
         assert said() == [] and lighting.retyped_lamps(node) == []
         sun.data.type = 'SPOT'
-        assert said() == ["rm retyped sun: bound as Sun, now Spot: bind again"]
-        api.bind_light(node, sun)
-        assert said() == []
+        assert said() == ["rm retyped sun: bound as Sun, now Spot: bound again at the next "
+                          "update, render or save"]
+        assert _repair_buttons(bpy, ctx) == 1
+        assert bpy.ops.node.rm_sync_light_linking() == {'FINISHED'}
+        assert said() == [] and lighting.retyped_lamps(node) == []
+        groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
+        assert groups.input_socket(node, "spot").default_value == 1.0
         sun.data.type = 'POINT'
         assert lighting.retyped_lamps(node) == [(sun, 'SPOT')]
         sun.data.type = 'AREA'
         assert said() == ["rm retyped sun: bound as Spot, now Area: exact mode follows sun, "
                           "point and spot lamps"]
+        assert _repair_buttons(bpy, ctx) == 0
     finally:
+        handlers.append(ui.on_depsgraph_update_post)
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun])
 
 
@@ -856,30 +868,33 @@ def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, blockers])
 
 
+def _repair_buttons(bpy, ctx) -> int:
+    """How many *Repair Light Linking* buttons the sidebar draws in ``ctx``."""
+    layout = Recorder()
+    bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
+    return len([e for e in layout.of("operator") if "rm_sync_light_linking" in str(e)])
+
+
 def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
     """A light whose lamp was deleted keeps its last values until the next
-    render or save sets it to 0 (tests/test_lighting.py); the sidebar says
+    update, render or save sets it to 0 (tests/test_lighting.py); the sidebar says
     so meanwhile, with the Repair button, which does it at once."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm deleted")
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
     groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
-    message = "Lamp deleted for light 1: lit as before until the next render or save sets it to 0"
-
-    def buttons():
-        layout = Recorder()
-        bpy.types.NODE_PT_rm_sidebar.draw(SimpleNamespace(layout=layout), ctx)
-        return [e for e in layout.of("operator") if "rm_sync_light_linking" in str(e)]
+    message = ("Lamp deleted for light 1: lit as before until the next update, render or save "
+               "sets it to 0")
 
     try:
         api.bind_light(node, sun)
-        assert message not in sidebar_labels(bpy, ctx) and not buttons()
+        assert message not in sidebar_labels(bpy, ctx) and not _repair_buttons(bpy, ctx)
         bpy.data.objects.remove(sun)
-        assert message in sidebar_labels(bpy, ctx) and len(buttons()) == 1
+        assert message in sidebar_labels(bpy, ctx) and _repair_buttons(bpy, ctx) == 1
         strength = groups.input_socket(node, lighting.socket_name("light_strength", 1))
         assert strength.default_value > 0
         assert bpy.ops.node.rm_sync_light_linking() == {'FINISHED'}
-        assert message not in sidebar_labels(bpy, ctx) and not buttons()
+        assert message not in sidebar_labels(bpy, ctx) and not _repair_buttons(bpy, ctx)
         assert strength.default_value == 0 and api.light_drivers(node) == []
     finally:
         api.unbind_light(node)
