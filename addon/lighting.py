@@ -120,6 +120,35 @@ SUN_STRENGTH = "e * pow(2, x) * (1 - h)"
 POINT_STRENGTH = ("e * pow(2, x) * (1 / (4 * pi) if n else (r * r if r > 0 else 1 / pi))"
                   " * (1 - h)")
 LIGHT_COLOR = "c * (t if u else 1)"
+# c0, c1, ...: the Disable in Renders of the collections the lamp is in, its own and
+# their parents' (a lamp in a collection disabled in renders lights nothing)
+COLLECTION_VAR = re.compile(r"c\d+")
+
+
+def collection_chain(lamp):
+    """The collections whose Disable in Renders decides whether ``lamp``
+    renders: the one collection it is in and that one's parents up to a
+    scene's collection (which has no such switch), nearest first; ``[]``
+    for a lamp in a scene's collection only; None where it is not one
+    chain (the lamp in several collections, or a collection with several
+    parents: it renders where any path does, which a product of switches
+    cannot say; the sidebar names such a lamp when it is not rendered)."""
+    masters = {scene.collection.as_pointer() for scene in bpy.data.scenes}
+    direct = list(lamp.users_collection)
+    if len(direct) != 1:
+        return None
+    parents = {}
+    for coll in list(bpy.data.collections) + [scene.collection for scene in bpy.data.scenes]:
+        for child in coll.children:
+            parents.setdefault(child.as_pointer(), []).append(coll)
+    chain, coll = [], direct[0]
+    while coll.as_pointer() not in masters:
+        chain.append(coll)
+        above = parents.get(coll.as_pointer(), [])
+        if len(above) != 1:  # several parents, or in no scene (an instanced lamp)
+            return None
+        coll = above[0]
+    return chain
 
 
 def _check_node(node):
@@ -190,8 +219,11 @@ def _bind_one(node, k, light_object):
                 HIDDEN: _prop(light_object, "hide_render")}
     if kind != 'SUN':
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
-    _drive(sock("light_strength"), -1, SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH,
-           strength)
+    chain = collection_chain(light_object) or []
+    for i, coll in enumerate(chain):
+        strength[f"c{i}"] = _prop(coll, "hide_render")
+    _drive(sock("light_strength"), -1, (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH)
+           + "".join(f" * (1 - c{i})" for i in range(len(chain))), strength)
     # the lamp's Cast Shadow (Cycles honours it: measured in 5.2 and 4.5)
     _drive(sock("shadows"), -1, "s", {"s": _prop(light, "use_shadow")})
     for i in range(3):
@@ -325,12 +357,40 @@ def _renders_in(lamp, layer) -> bool:
 
 def unrendered_lamps(node, layer) -> list:
     """The bound lamps of ``node`` that the view layer ``layer`` does not
-    render: in no collection of it, or only in collections excluded from it
-    or disabled in renders.  Exact mode lights with them all the same (its
-    drivers follow the lamp object's own Disable in Renders only: a
-    driver cannot follow which collections a lamp is in)."""
-    return [lamp for lamp in bound_lights(node)
-            if not lamp.hide_render and not _renders_in(lamp, layer)]
+    render (in no collection of it, or only in collections excluded from it
+    or disabled in renders) and with which exact mode lights all the same:
+    its drivers follow the lamp object's Disable in Renders and that of the
+    collections it is in where they are one chain (:func:`collection_chain`,
+    bound as it is now), not a view layer's exclusions (a driver reads no
+    view layer but by its name and its collections' names)."""
+    out = []
+    for k, lamp in _bound_by_light(node):
+        if lamp.hide_render or _renders_in(lamp, layer):
+            continue
+        chain = collection_chain(lamp)
+        followed = chain is not None and any(c.hide_render for c in chain) \
+            and bound_collections(node, k) == chain
+        if not followed:
+            out.append(lamp)
+    return out
+
+
+def bound_collections(node, k) -> list | None:
+    """The collections whose Disable in Renders light k's strength follows
+    (its driver's variables c0, c1, ...; None for a collection deleted
+    since), nearest first; None if light k's strength has no driver."""
+    anim = node.id_data.animation_data
+    try:
+        path = groups.input_socket(node, socket_name("light_strength", k)) \
+            .path_from_id("default_value")
+    except KeyError:
+        return None
+    for fc in (anim.drivers if anim else ()):
+        if fc.data_path == path:
+            found = sorted((int(v.name[1:]), v.targets[0].id) for v in fc.driver.variables
+                           if COLLECTION_VAR.fullmatch(v.name))
+            return [coll for _i, coll in found]
+    return None
 
 
 def shadow_linked_lamps(node) -> list:
@@ -361,13 +421,26 @@ def retyped_lamps(node) -> list:
     return out
 
 
-def rebind_retyped_lamps() -> int:
+def moved_lamp_lights(node) -> list:
+    """The lights k of ``node`` bound by this version (their strength
+    follows the lamp's Disable in Renders) whose lamp is no longer in the
+    collections binding read (:func:`collection_chain`): moved to another
+    collection, a collection deleted or nested since.  An earlier version's
+    bindings are left (:func:`outdated_bindings` names them)."""
+    outdated = set(outdated_bindings(node))
+    return [k for k, lamp in _bound_by_light(node)
+            if lamp not in outdated
+            and bound_collections(node, k) != (collection_chain(lamp) or [])]
+
+
+def rebind_changed_lamps() -> int:
     """Bind again, light by light, each bound lamp whose type changed since
     binding to another type exact mode follows (:func:`retyped_lamps`: a
-    sun turned into a spot lamp, say): its drivers made for its new type,
-    as binding it would make them.  An area lamp is left as it is (exact
-    mode follows none; the sidebar names it).  In every material's RM
-    nodes but linked ones.  Returns how many lights."""
+    sun turned into a spot lamp, say), and each whose collections changed
+    (:func:`moved_lamp_lights`): its drivers made as binding it now would
+    make them.  An area lamp is left as it is (exact mode follows none;
+    the sidebar names it).  In every material's RM nodes but linked ones.
+    Returns how many lights."""
     count = 0
     for mat in bpy.data.materials:
         for node in groups.rm_nodes_in(mat.node_tree):
@@ -375,8 +448,10 @@ def rebind_retyped_lamps() -> int:
                 continue
             retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)
                        if lamp.data.type in SUPPORTED_LIGHTS}
+            moved = set(moved_lamp_lights(node))
             for k, lamp in _bound_by_light(node):
-                if lamp.as_pointer() in retyped:
+                if lamp.as_pointer() in retyped or (k in moved and lamp.data.type
+                                                    in SUPPORTED_LIGHTS):
                     _bind_one(node, k, lamp)
                     count += 1
     return count

@@ -269,18 +269,18 @@ class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
     bl_label = "Repair Light Linking"
     bl_description = ("Exclude the bound lamps from every object that uses a hybrid material "
                       "(and undo what is no longer needed), set the lights of deleted lamps to "
-                      "strength 0, and bind again lamps whose type changed; also done on "
-                      "render and save")
+                      "strength 0, and bind again lamps whose type or collections changed; "
+                      "also done on render and save")
     bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, _context):
         released = lighting.release_deleted_lamps()
-        rebound = lighting.rebind_retyped_lamps()
+        rebound = lighting.rebind_changed_lamps()
         n = api.sync_light_linking()
         self.report({'INFO'}, f"Light linking: {n} change(s)"
                     + (f"; {released} light(s) of deleted lamps set to 0" if released else "")
-                    + (f"; {rebound} light(s) bound again for their lamp's new type"
-                       if rebound else ""))
+                    + (f"; {rebound} light(s) bound again for their lamp's new type or "
+                       "collections" if rebound else ""))
         return {'FINISHED'}
 
 
@@ -541,7 +541,12 @@ def _draw_node(layout, context, node):
             "bound again at the next update, render or save"
             if lamp.data.type in lighting.SUPPORTED_LIGHTS
             else "exact mode follows sun, point and spot lamps"), icon='ERROR')
-    rebind = any(lamp.data.type in lighting.SUPPORTED_LIGHTS for lamp, _was in retyped)
+    moved = lighting.moved_lamp_lights(node) if mode != "path_traced" else []
+    if moved:
+        box.label(text="Lamp in other collections since binding for light " + ", ".join(
+            map(str, moved)) + ": bound again at the next update, render or save", icon='ERROR')
+    rebind = bool(moved) or any(lamp.data.type in lighting.SUPPORTED_LIGHTS
+                                for lamp, _was in retyped)
     if rebind and not deleted:
         box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon='FILE_REFRESH')
     if mode == "hybrid":
@@ -678,10 +683,10 @@ _FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
 _RELEASE_DELETED = (lambda: lighting.release_deleted_lamps(),
                     "release the lights of deleted lamps",
                     "%d light(s) whose lamp was deleted set to strength 0")
-# and for the lamps whose type changed since binding
-_REBIND_RETYPED = (lambda: lighting.rebind_retyped_lamps(),
-                   "bind again a lamp whose type changed",
-                   "%d light(s) bound again for their lamp's new type")
+# and for the lamps whose type or collections changed since binding
+_REBIND_CHANGED = (lambda: lighting.rebind_changed_lamps(),
+                   "bind again a lamp whose type or collections changed",
+                   "%d light(s) bound again for their lamp's new type or collections")
 
 
 @persistent
@@ -693,8 +698,9 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     object given a hybrid material was lit twice, by the closure and by the
     exact evaluation):
 
-    - after a light was edited: a bound lamp whose type changed (a sun
-      made a spot lamp) bound again for its new type;
+    - after a light or a collection was edited: a bound lamp whose type
+      changed (a sun made a spot lamp) or that is now in other collections
+      (whose Disable in Renders its strength follows) bound again;
     - after objects were added or removed (their number changed): a copy
       of a bound lamp, which Blender gives the original's light linking,
       has the extension's collection taken away, and the lights of a
@@ -724,8 +730,8 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         # a transform or an edit of existing data: adding or removing an object and changing
         # a slot rebuild the depsgraph's relations, which updates the scene (measured)
         return
-    if updated is None or updated('LIGHT'):
-        _logged(*_REBIND_RETYPED)
+    if updated is None or updated('LIGHT') or updated('COLLECTION'):
+        _logged(*_REBIND_CHANGED)
     count = len(bpy.data.objects)
     if count != _objects_seen[0]:
         _objects_seen[0] = count
@@ -801,7 +807,7 @@ def _sync_light_linking(in_render=False):
     whose lamp's type changed (bound again: measured in a render handler,
     the render then the same as after binding by hand, to the bit)."""
     _logged(*_RELEASE_DELETED)
-    _logged(*_REBIND_RETYPED)
+    _logged(*_REBIND_CHANGED)
     _update_linking("render" if in_render else None)
 
 

@@ -1048,3 +1048,51 @@ def test_a_bound_lamp_whose_type_changed_is_bound_again(bpy, installed_extension
         assert np.allclose(img, expected, rtol=1e-6, atol=0)
     finally:
         lighting.remove_binding(api, node, g.scene, mat)
+
+
+def test_exact_mode_follows_the_disable_in_renders_of_the_lamps_collections(
+        bpy, installed_extension):
+    """Cycles renders no lamp in a collection disabled in renders, nor
+    under such a collection; exact mode's strength driver reads the
+    switches of the collections the bound lamp is in (measured before: the
+    sun's collection disabled, the path-traced gonio rendered 0 and the
+    exact one the model).  Bound in a collection nested in another: lit;
+    either collection disabled: black.  Moved afterwards into a disabled
+    collection with the viewport's handler out, the render handler binds
+    it again to the new collections: black; moved back, the viewport's
+    handler does it at the next update: lit, the same as at first (1e-6
+    relative: the same scene and drivers, float32)."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_colls",
+                                                          "exact")
+    outer = bpy.data.collections.new("rm_ll_colls outer")
+    inner = bpy.data.collections.new("rm_ll_colls inner")
+    away = bpy.data.collections.new("rm_ll_colls away")
+    g.scene.collection.children.link(outer)
+    g.scene.collection.children.link(away)
+    outer.children.link(inner)
+    for coll in list(g.sun.users_collection):
+        coll.objects.unlink(g.sun)
+    inner.objects.link(g.sun)
+    try:
+        api.bind_light(node, g.sun)
+        assert linking.bound_collections(node, 1) == [inner, outer]
+        lit = g.render()
+        assert lit[g.lit].min() > 0
+        for coll in (inner, outer):
+            coll.hide_render = True
+            assert not g.render()[g.mask].any(), coll.name
+            coll.hide_render = False
+        away.hide_render = True
+        with _ViewportHandlerOff(bpy):
+            away.objects.link(g.sun)
+            inner.objects.unlink(g.sun)
+            assert linking.moved_lamp_lights(node) == [1]
+            assert not g.render()[g.mask].any()
+            assert linking.bound_collections(node, 1) == [away]
+        inner.objects.link(g.sun)
+        away.objects.unlink(g.sun)
+        g.scene.view_layers[0].update()
+        assert linking.moved_lamp_lights(node) == []
+        assert np.allclose(g.render(), lit, rtol=1e-6, atol=0)
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [outer, inner, away])

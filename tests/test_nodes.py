@@ -806,15 +806,17 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
 
 
 def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bpy):
-    """Exact mode's drivers follow the lamp object's Disable in Renders
-    (tests/test_api.py), not the collections it is in (measured, 5.2.4: the
-    bound sun's collection disabled in renders, the path-traced gonio
-    rendered 0 and the exact one the model as before): the sidebar names a
-    bound lamp whose collections are all excluded from the view layer or
-    disabled in renders."""
+    """Exact mode's drivers follow the lamp object's Disable in Renders and
+    that of the collections it is in where they are one chain
+    (tests/test_lighting.py renders it), not a view layer's exclusions, nor
+    collections when the lamp is in several (it renders where any of them
+    does): the sidebar names a bound lamp the view layer does not render
+    when the drivers do not follow that."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm unrendered")
     rig = bpy.data.collections.new("rm unrendered rig")
+    other = bpy.data.collections.new("rm unrendered other")
     scene.collection.children.link(rig)
+    scene.collection.children.link(other)
     rig.objects.link(sun)
     scene.collection.objects.unlink(sun)
     layer = scene.view_layers[0]
@@ -830,19 +832,23 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
     try:
         api.bind_light(node, sun)
         assert not said()
-        rig.hide_render = True
-        assert said()
-        rig.hide_render = False
-        layer.layer_collection.children[rig.name].exclude = True
-        assert said()
-        scene.collection.objects.link(sun)  # rendered through another collection
+        rig.hide_render = True  # followed by the drivers
         assert not said()
-        scene.collection.objects.unlink(sun)
+        rig.hide_render = False
+        layer.layer_collection.children[rig.name].exclude = True  # not followed
         assert said()
+        layer.layer_collection.children[rig.name].exclude = False
+        other.objects.link(sun)  # in two collections: rendered where either renders
+        rig.hide_render = other.hide_render = True
+        assert said()
+        other.hide_render = False  # rendered through the other one
+        assert not said()
+        other.objects.unlink(sun)
+        assert not said()  # in the rig alone again, bound again at the update: followed
         sun.hide_render = True  # followed by the drivers: nothing to say
         assert not said()
     finally:
-        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig])
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig, other])
 
 
 def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):

@@ -9,7 +9,8 @@ panel, and the viewport's handler (``ui.on_depsgraph_update_post``) after
 objects were added or removed (copied and deleted bound lamps put right),
 at its first update, after an object's slot changed (the exclusions
 brought up to date), at another update of the scene, after objects
-moved, and after a node was edited among 10 to 1,000 materials.  In a process of its own with
+moved, and after a node or a light was edited among 10 to 1,000
+materials.  In a process of its own with
 nothing else in the file.  Measures and prints; asserts nothing.
 """
 
@@ -46,14 +47,17 @@ class _Graph:
 
     mode = 'VIEWPORT'
 
-    def __init__(self, updates=(), scene=True, materials=False):
+    def __init__(self, updates=(), scene=True, materials=False, lights=False):
         self.updates, self.scene, self.materials = list(updates), scene, materials
+        self.lights = lights
 
     def id_type_updated(self, id_type):
         if id_type == 'SCENE':
             return self.scene
         if id_type in ('MATERIAL', 'NODETREE'):
             return self.materials
+        if id_type in ('LIGHT', 'COLLECTION'):
+            return self.lights
         return bool(self.updates)
 
 
@@ -109,13 +113,16 @@ def _row(api, ui, n):
 
 def _node_edit(api, ui, m):
     """Seconds of the viewport's handler at an update of a material's node
-    tree (a node edited) with nothing else changed, among ``m`` materials
-    (a Principled BSDF each; one of them with a hybrid node bound to a
-    sun); all removed."""
+    tree (a node edited), and at one of a light (its energy edited), with
+    nothing else changed, among ``m`` materials (a Principled BSDF each;
+    one of them with a hybrid node bound to a sun in a collection of the
+    scene); all removed."""
     import bpy
     scene = bpy.data.scenes.new(f"rm_bench_nodes_{m}")
     sun = bpy.data.objects.new("rm_bench_sun", bpy.data.lights.new("rm_bench_sun", "SUN"))
-    scene.collection.objects.link(sun)
+    rig = bpy.data.collections.new("rm_bench_rig")
+    scene.collection.children.link(rig)
+    rig.objects.link(sun)
     materials = [bpy.data.materials.new(f"rm_bench_nodes_{i}") for i in range(m)]
     for mat in materials:
         if mat.node_tree is None:  # 4.5: a new material has no nodes
@@ -127,10 +134,12 @@ def _node_edit(api, ui, m):
     t0 = time.perf_counter()
     ui.on_depsgraph_update_post(scene, _Graph(materials=True))
     t1 = time.perf_counter()
+    ui.on_depsgraph_update_post(scene, _Graph(lights=True))
+    t2 = time.perf_counter()
     api.unbind_light(node)
-    bpy.data.batch_remove(materials + [sun, sun.data])
+    bpy.data.batch_remove(materials + [sun, sun.data, rig])
     bpy.data.scenes.remove(scene)
-    return t1 - t0
+    return t1 - t0, t2 - t1
 
 
 def main(argv=None):
@@ -155,12 +164,14 @@ def main(argv=None):
           "an object's slot changed (one exclusion removed), at an update of the scene with "
           "nothing added and no slot changed, and after every object moved (the scene not "
           "updated); measured, not asserted)")
-    print("\nThe viewport's handler after a node was edited, with nothing else changed")
-    print(f"{'materials':>9s} {'handler':>9s}")
+    print("\nThe viewport's handler after a node or a light was edited, nothing else changed")
+    print(f"{'materials':>9s} {'node':>9s} {'light':>9s}")
     for m in (10, 100, 1_000):
-        print(f"{m:9d} {_node_edit(api, ui, m) * 1e3:7.2f}ms")
+        node, light = _node_edit(api, ui, m)
+        print(f"{m:9d} {node * 1e3:7.2f}ms {light * 1e3:7.2f}ms")
     print("(each material a Principled BSDF, one of them with a hybrid node bound to a sun: "
-          "the handler reads which materials have a bound hybrid node; measured, not "
+          "after a node edit the handler reads which materials have a bound hybrid node, "
+          "after a light edit which bound lamps changed type or collections; measured, not "
           "asserted)")
     return 0
 
