@@ -805,6 +805,38 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun])
 
 
+def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
+    """Exact mode's strength follows the Disable in Renders of the
+    collections the lamp was in when bound; a lamp moved to others is
+    bound again at the viewport's next update, a render or a save
+    (tests/test_lighting.py).  Until then the sidebar names the light and
+    offers *Repair Light Linking*, which binds it again.  The viewport's
+    handler is out: no update here may bind it first."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm moved")
+    lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
+    rig = bpy.data.collections.new("rm moved rig")
+    scene.collection.children.link(rig)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = ("Lamp in other collections since binding for light 1: bound again at the next "
+               "update, render or save")
+    handlers = bpy.app.handlers.depsgraph_update_post
+    handlers.remove(ui.on_depsgraph_update_post)
+    try:
+        api.set_mode(node, "exact")
+        api.bind_light(node, sun)
+        assert message not in sidebar_labels(bpy, ctx) and not _repair_buttons(bpy, ctx)
+        rig.objects.link(sun)
+        scene.collection.objects.unlink(sun)
+        assert lighting.moved_lamp_lights(node) == [1]
+        assert message in sidebar_labels(bpy, ctx) and _repair_buttons(bpy, ctx) == 1
+        assert bpy.ops.node.rm_sync_light_linking() == {'FINISHED'}
+        assert lighting.bound_collections(node, 1) == [rig]
+        assert message not in sidebar_labels(bpy, ctx) and not _repair_buttons(bpy, ctx)
+    finally:
+        handlers.append(ui.on_depsgraph_update_post)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig])
+
+
 def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bpy):
     """Exact mode's drivers follow the lamp object's Disable in Renders and
     that of the collections it is in where they are one chain
