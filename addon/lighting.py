@@ -375,22 +375,35 @@ def unrendered_lamps(node, layer) -> list:
     return out
 
 
-def bound_collections(node, k) -> list | None:
-    """The collections whose Disable in Renders light k's strength follows
-    (its driver's variables c0, c1, ...; None for a collection deleted
-    since), nearest first; None if light k's strength has no driver."""
+def _strength_driver(node, k):
+    """The driver of light k's strength, or None."""
     anim = node.id_data.animation_data
     try:
         path = groups.input_socket(node, socket_name("light_strength", k)) \
             .path_from_id("default_value")
     except KeyError:
         return None
-    for fc in (anim.drivers if anim else ()):
-        if fc.data_path == path:
-            found = sorted((int(v.name[1:]), v.targets[0].id) for v in fc.driver.variables
-                           if COLLECTION_VAR.fullmatch(v.name))
-            return [coll for _i, coll in found]
-    return None
+    return next((fc.driver for fc in (anim.drivers if anim else ()) if fc.data_path == path),
+                None)
+
+
+def bound_collections(node, k) -> list | None:
+    """The collections whose Disable in Renders light k's strength follows
+    (its driver's variables c0, c1, ...; None for a collection deleted
+    since), nearest first; None if light k's strength has no driver."""
+    driver = _strength_driver(node, k)
+    if driver is None:
+        return None
+    found = sorted((int(v.name[1:]), v.targets[0].id) for v in driver.variables
+                   if COLLECTION_VAR.fullmatch(v.name))
+    return [coll for _i, coll in found]
+
+
+def _bound_light_data(node, k):
+    """The light datablock whose energy light k's strength reads, or None."""
+    driver = _strength_driver(node, k)
+    var = driver.variables.get("e") if driver is not None else None
+    return var.targets[0].id if var is not None else None
 
 
 def shadow_linked_lamps(node) -> list:
@@ -424,21 +437,24 @@ def retyped_lamps(node) -> list:
 def moved_lamp_lights(node) -> list:
     """The lights k of ``node`` bound by this version (their strength
     follows the lamp's Disable in Renders) whose lamp is no longer in the
-    collections binding read (:func:`collection_chain`): moved to another
-    collection, a collection deleted or nested since.  An earlier version's
+    collections binding read (:func:`collection_chain`: moved to another
+    collection, a collection deleted or nested since), or has other light
+    data than binding read (the Object Data's light replaced: the drivers
+    read the old light's strength, colour and cone).  An earlier version's
     bindings are left (:func:`outdated_bindings` names them)."""
     outdated = set(outdated_bindings(node))
     return [k for k, lamp in _bound_by_light(node)
             if lamp not in outdated
-            and bound_collections(node, k) != (collection_chain(lamp) or [])]
+            and (bound_collections(node, k) != (collection_chain(lamp) or [])
+                 or _bound_light_data(node, k) != lamp.data)]
 
 
 def rebind_changed_lamps() -> int:
     """Bind again, light by light, each bound lamp whose type changed since
     binding to another type exact mode follows (:func:`retyped_lamps`: a
-    sun turned into a spot lamp, say), and each whose collections changed
-    (:func:`moved_lamp_lights`): its drivers made as binding it now would
-    make them.  An area lamp is left as it is (exact mode follows none;
+    sun turned into a spot lamp, say), and each whose collections or light
+    data changed (:func:`moved_lamp_lights`): its drivers made as binding
+    it now would make them.  An area lamp is left as it is (exact mode follows none;
     the sidebar names it).  In every material's RM nodes but linked ones.
     Returns how many lights."""
     count = 0

@@ -543,8 +543,9 @@ def _draw_node(layout, context, node):
             else "exact mode follows sun, point and spot lamps"), icon='ERROR')
     moved = lighting.moved_lamp_lights(node) if mode != "path_traced" else []
     if moved:
-        box.label(text="Lamp in other collections since binding for light " + ", ".join(
-            map(str, moved)) + ": bound again at the next update, render or save", icon='ERROR')
+        box.label(text="Lamp in other collections, or with other light data, since binding "
+                  "for light " + ", ".join(map(str, moved))
+                  + ": bound again at the next update, render or save", icon='ERROR')
     rebind = bool(moved) or any(lamp.data.type in lighting.SUPPORTED_LIGHTS
                                 for lamp, _was in retyped)
     if rebind and not deleted:
@@ -685,8 +686,9 @@ _RELEASE_DELETED = (lambda: lighting.release_deleted_lamps(),
                     "%d light(s) whose lamp was deleted set to strength 0")
 # and for the lamps whose type or collections changed since binding
 _REBIND_CHANGED = (lambda: lighting.rebind_changed_lamps(),
-                   "bind again a lamp whose type or collections changed",
-                   "%d light(s) bound again for their lamp's new type or collections")
+                   "bind again a lamp whose type, collections or light data changed",
+                   "%d light(s) bound again for their lamp's new type, collections or light "
+                   "data")
 
 
 @persistent
@@ -699,8 +701,9 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     exact evaluation):
 
     - after a light or a collection was edited: a bound lamp whose type
-      changed (a sun made a spot lamp) or that is now in other collections
-      (whose Disable in Renders its strength follows) bound again;
+      changed (a sun made a spot lamp), that is now in other collections
+      (whose Disable in Renders its strength follows) or that has other
+      light data bound again;
     - after objects were added or removed (their number changed): a copy
       of a bound lamp, which Blender gives the original's light linking,
       has the extension's collection taken away, and the lights of a

@@ -1096,3 +1096,32 @@ def test_exact_mode_follows_the_disable_in_renders_of_the_lamps_collections(
         assert np.allclose(g.render(), lit, rtol=1e-6, atol=0)
     finally:
         lighting.remove_binding(api, node, g.scene, mat, [outer, inner, away])
+
+
+def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
+    """Binding's drivers read the lamp's light datablock (strength, colour,
+    cone); a lamp object given another light datablock (the Object Data
+    menu) kept lighting exact mode with the old one's strength.  The
+    viewport's next update binds it again: a sun given a light of strength
+    3 renders 3 × the reference within 1e-4 (float32; the Lambert
+    evaluation is the model), and the new light's strength is followed
+    afterwards (2 × after setting it to 2)."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_relit",
+                                                          "exact")
+    brighter = bpy.data.lights.new("rm_relit brighter", "SUN")
+    brighter.energy = 3.0
+    old = g.sun.data
+    try:
+        api.bind_light(node, g.sun)
+        g.sun.data = brighter
+        g.scene.view_layers[0].update()
+        assert linking.moved_lamp_lights(node) == []
+        m = g.lit
+        assert m.sum() > 20
+        for strength in (3.0, 2.0):
+            brighter.energy = strength
+            img, expected = g.render(), strength * g.reference("lambert")
+            assert np.allclose(img[..., :3][m], expected[m], rtol=1e-4, atol=0), \
+                float(np.max(np.abs(img[..., :3][m] / expected[m] - 1)))
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [old])

@@ -817,8 +817,8 @@ def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
     rig = bpy.data.collections.new("rm moved rig")
     scene.collection.children.link(rig)
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
-    message = ("Lamp in other collections since binding for light 1: bound again at the next "
-               "update, render or save")
+    message = ("Lamp in other collections, or with other light data, since binding for light "
+               "1: bound again at the next update, render or save")
     handlers = bpy.app.handlers.depsgraph_update_post
     handlers.remove(ui.on_depsgraph_update_post)
     try:
