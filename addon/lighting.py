@@ -582,9 +582,7 @@ def _evaluated_users(evaluate=True, lamp_scenes=None):
     render handler); False, none (a panel's draw).  ``unknown``: such
     objects in scenes none of which had a depsgraph to read (their
     exclusions are kept as they are)."""
-    candidates = [obj for obj in bpy.data.objects
-                  if obj.instance_type != 'NONE' or len(getattr(obj, "particle_systems", ()))
-                  or any(m.type == 'NODES' for m in getattr(obj, "modifiers", ()))]
+    candidates = [obj for obj in bpy.data.objects if _renders_beyond_slots(obj)]
     if not candidates:
         return {}, set()
     scenes_of = groups.object_scenes()
@@ -615,11 +613,31 @@ def hybrid_material_pointers() -> set:
     return {mat.as_pointer() for mat, _node, lamps in _hybrid_bindings() if lamps}
 
 
-def slot_materials(obj) -> tuple:
+def _renders_beyond_slots(obj) -> bool:
+    """Whether ``obj`` may render materials its slots do not name: it
+    instances (a collection, vertices or faces, particles) or has a
+    Geometry Nodes modifier (a Set Material node, instances)."""
+    return obj.instance_type != 'NONE' or bool(len(getattr(obj, "particle_systems", ()))) \
+        or any(m.type == 'NODES' for m in getattr(obj, "modifiers", ()))
+
+
+def slot_materials(obj, graph=None) -> tuple:
     """The pointers of the materials in ``obj``'s slots (0 for an empty
-    slot), to compare between the viewport's updates."""
-    return tuple(slot.material.as_pointer() if slot.material is not None else 0
-                 for slot in getattr(obj, "material_slots", ()))
+    slot), to compare between the viewport's updates; with the depsgraph
+    ``graph``, for an object that instances or has Geometry Nodes
+    (:func:`_renders_beyond_slots`), those it renders there too
+    (:func:`groups.rendered_materials`), sorted after them."""
+    slots = tuple(slot.material.as_pointer() if slot.material is not None else 0
+                  for slot in getattr(obj, "material_slots", ()))
+    if graph is None or not _renders_beyond_slots(obj):
+        return slots
+    try:
+        in_graph = obj.evaluated_get(graph).is_evaluated
+    except (RuntimeError, ReferenceError):
+        in_graph = False
+    if not in_graph:  # another scene's object: ``evaluated_get`` gave the original
+        return slots
+    return slots + tuple(sorted(m.as_pointer() for m in groups.rendered_materials(obj, graph)))
 
 
 def _hybrid_lamps() -> set:

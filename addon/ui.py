@@ -709,7 +709,9 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
       has the extension's collection taken away, and the lights of a
       deleted bound lamp are set to 0;
     - when an object's slots got or lost a material with a bound hybrid
-      node (a new object with one, Shift D of one, a slot changed), when
+      node (a new object with one, Shift D of one, a slot changed; for an
+      object that instances or has Geometry Nodes, the materials it
+      renders), when
       the materials with one changed (a hybrid node deleted, a material
       removed), and at the first update after the extension was enabled,
       a file opened, an undo or a redo: the hybrid exclusions brought up
@@ -756,10 +758,14 @@ def _exclusions_changed(depsgraph) -> bool:
     node, or the set of those materials changed (a hybrid node deleted, a
     material removed: read when a material or node tree was updated).
     When nothing was read yet, every object is read, and True if any
-    hybrid node is bound."""
+    hybrid node is bound.  An object that instances or has Geometry Nodes
+    counts with the materials it renders in ``depsgraph`` (a Set Material
+    node's changed, say)."""
+    graph = depsgraph if isinstance(depsgraph, bpy.types.Depsgraph) else None
     seen = _slots_seen[0]
     if seen is None:
-        _slots_seen[0] = {o.as_pointer(): lighting.slot_materials(o) for o in bpy.data.objects}
+        _slots_seen[0] = {o.as_pointer(): lighting.slot_materials(o, graph)
+                          for o in bpy.data.objects}
         _hybrid_seen[0] = lighting.hybrid_material_pointers()
         return bool(_hybrid_seen[0])
     changed = set()
@@ -769,7 +775,7 @@ def _exclusions_changed(depsgraph) -> bool:
         obj = update.id.original
         if not isinstance(obj, bpy.types.Object):
             continue
-        now, before = lighting.slot_materials(obj), seen.get(obj.as_pointer(), ())
+        now, before = lighting.slot_materials(obj, graph), seen.get(obj.as_pointer(), ())
         if now != before:
             seen[obj.as_pointer()] = now
             changed |= set(now) ^ set(before)

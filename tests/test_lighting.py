@@ -1125,3 +1125,42 @@ def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_exten
                 float(np.max(np.abs(img[..., :3][m] / expected[m] - 1)))
     finally:
         lighting.remove_binding(api, node, g.scene, mat, [old])
+
+
+def test_the_viewport_excludes_an_object_given_the_material_by_geometry_nodes_at_once(
+        bpy, installed_extension):
+    """An object whose Geometry Nodes' Set Material node is given the
+    hybrid material in the viewport (the node's material changed, no slot)
+    is excluded at the view layer's next update, and let go when the node
+    gets another material: the viewport's handler compares what such an
+    object renders in the depsgraph, not only its slots."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    scene = bpy.data.scenes.new("rm_vp_gn")
+    sun = lit.add_lamp(scene, lit.Lamp("SUN"), "rm_vp_gn_sun")
+    mat, plain = _material("rm_vp_gn"), _material("rm_vp_gn_plain")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    obj = _mesh_object(bpy, scene, "rm_vp_gn_obj")
+    layer = scene.view_layers[0]
+    tree = None
+    try:
+        api.bind_light(node, sun)
+        tree = lighting.material_by_geometry_nodes(obj, plain)
+        setter = next(n for n in tree.nodes if n.bl_idname == "GeometryNodeSetMaterial")
+        layer.update()
+        coll = sun.light_linking.receiver_collection
+        assert obj.name not in coll.objects
+        setter.inputs["Material"].default_value = mat
+        layer.update()
+        assert obj.name in coll.objects
+        assert _entry(coll, obj).light_linking.link_state == 'EXCLUDE'
+        setter.inputs["Material"].default_value = plain
+        layer.update()
+        assert obj.name not in coll.objects
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(scene)
+        bpy.data.materials.remove(mat)
+        bpy.data.materials.remove(plain)
+        if tree is not None:
+            bpy.data.node_groups.remove(tree)
