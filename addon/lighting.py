@@ -125,22 +125,30 @@ LIGHT_COLOR = "c * (t if u else 1)"
 COLLECTION_VAR = re.compile(r"c\d+")
 
 
-def collection_chain(lamp):
+def _collection_parents() -> dict:
+    """Collection pointer -> the collections (a scene's among them) it is a
+    child of, from one walk."""
+    parents = {}
+    for coll in list(bpy.data.collections) + [scene.collection for scene in bpy.data.scenes]:
+        for child in coll.children:
+            parents.setdefault(child.as_pointer(), []).append(coll)
+    return parents
+
+
+def collection_chain(lamp, parents=None):
     """The collections whose Disable in Renders decides whether ``lamp``
     renders: the one collection it is in and that one's parents up to a
     scene's collection (which has no such switch), nearest first; ``[]``
     for a lamp in a scene's collection only; None where it is not one
     chain (the lamp in several collections, or a collection with several
     parents: it renders where any path does, which a product of switches
-    cannot say; the sidebar names such a lamp when it is not rendered)."""
+    cannot say; the sidebar names such a lamp when it is not rendered).
+    ``parents``: :func:`_collection_parents`, read here if None."""
     masters = {scene.collection.as_pointer() for scene in bpy.data.scenes}
     direct = list(lamp.users_collection)
     if len(direct) != 1:
         return None
-    parents = {}
-    for coll in list(bpy.data.collections) + [scene.collection for scene in bpy.data.scenes]:
-        for child in coll.children:
-            parents.setdefault(child.as_pointer(), []).append(coll)
+    parents = _collection_parents() if parents is None else parents
     chain, coll = [], direct[0]
     while coll.as_pointer() not in masters:
         chain.append(coll)
@@ -326,15 +334,21 @@ def release_deleted_lamps() -> int:
     to 0, as the deleted lamp would light: nothing.  Returns how many
     lights.  Run on render and save, as the light linking's update is."""
     count = 0
+    for node in _local_rm_nodes():
+        for k in deleted_lamp_lights(node):
+            _remove_drivers(node, k)
+            groups.input_socket(node, socket_name("light_strength", k)).default_value = 0.0
+            count += 1
+    return count
+
+
+def _local_rm_nodes():
+    """Every material's RM nodes (in its tree and the user's groups there)
+    but those in linked data, which is read-only here."""
     for mat in bpy.data.materials:
         for node in groups.rm_nodes_in(mat.node_tree):
-            if node.id_data.library is not None:  # linked: read-only here
-                continue
-            for k in deleted_lamp_lights(node):
-                _remove_drivers(node, k)
-                groups.input_socket(node, socket_name("light_strength", k)).default_value = 0.0
-                count += 1
-    return count
+            if node.id_data.library is None:
+                yield node
 
 
 def _renders_in(lamp, layer) -> bool:
@@ -387,23 +401,24 @@ def _strength_driver(node, k):
                 None)
 
 
-def bound_collections(node, k) -> list | None:
-    """The collections whose Disable in Renders light k's strength follows
-    (its driver's variables c0, c1, ...; None for a collection deleted
-    since), nearest first; None if light k's strength has no driver."""
+def _strength_reads(node, k):
+    """``(collections, light)`` that light k's strength driver reads: the
+    collections whose Disable in Renders it follows (its variables c0, c1,
+    ...; None for a collection deleted since), nearest first, and the light
+    datablock of its energy; ``(None, None)`` without a driver."""
     driver = _strength_driver(node, k)
     if driver is None:
-        return None
+        return None, None
     found = sorted((int(v.name[1:]), v.targets[0].id) for v in driver.variables
                    if COLLECTION_VAR.fullmatch(v.name))
-    return [coll for _i, coll in found]
+    energy = driver.variables.get("e")
+    return [coll for _i, coll in found], (energy.targets[0].id if energy is not None else None)
 
 
-def _bound_light_data(node, k):
-    """The light datablock whose energy light k's strength reads, or None."""
-    driver = _strength_driver(node, k)
-    var = driver.variables.get("e") if driver is not None else None
-    return var.targets[0].id if var is not None else None
+def bound_collections(node, k) -> list | None:
+    """The collections whose Disable in Renders light k's strength follows
+    (:func:`_strength_reads`); None if light k's strength has no driver."""
+    return _strength_reads(node, k)[0]
 
 
 def shadow_linked_lamps(node) -> list:
@@ -442,11 +457,14 @@ def moved_lamp_lights(node) -> list:
     data than binding read (the Object Data's light replaced: the drivers
     read the old light's strength, colour and cone).  An earlier version's
     bindings are left (:func:`outdated_bindings` names them)."""
-    outdated = set(outdated_bindings(node))
-    return [k for k, lamp in _bound_by_light(node)
-            if lamp not in outdated
-            and (bound_collections(node, k) != (collection_chain(lamp) or [])
-                 or _bound_light_data(node, k) != lamp.data)]
+    outdated, parents, out = set(outdated_bindings(node)), _collection_parents(), []
+    for k, lamp in _bound_by_light(node):
+        if lamp in outdated:
+            continue
+        collections, light = _strength_reads(node, k)
+        if collections != (collection_chain(lamp, parents) or []) or light != lamp.data:
+            out.append(k)
+    return out
 
 
 def rebind_changed_lamps() -> int:
@@ -454,22 +472,18 @@ def rebind_changed_lamps() -> int:
     binding to another type exact mode follows (:func:`retyped_lamps`: a
     sun turned into a spot lamp, say), and each whose collections or light
     data changed (:func:`moved_lamp_lights`): its drivers made as binding
-    it now would make them.  An area lamp is left as it is (exact mode follows none;
-    the sidebar names it).  In every material's RM nodes but linked ones.
-    Returns how many lights."""
+    it now would make them.  An area lamp is left as it is (exact mode
+    follows none; the sidebar names it).  In every material's RM nodes but
+    linked ones.  Returns how many lights."""
     count = 0
-    for mat in bpy.data.materials:
-        for node in groups.rm_nodes_in(mat.node_tree):
-            if node.id_data.library is not None:  # linked: read-only here
-                continue
-            retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)
-                       if lamp.data.type in SUPPORTED_LIGHTS}
-            moved = set(moved_lamp_lights(node))
-            for k, lamp in _bound_by_light(node):
-                if lamp.as_pointer() in retyped or (k in moved and lamp.data.type
-                                                    in SUPPORTED_LIGHTS):
-                    _bind_one(node, k, lamp)
-                    count += 1
+    for node in _local_rm_nodes():
+        retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)}
+        moved = set(moved_lamp_lights(node))
+        for k, lamp in _bound_by_light(node):
+            if (lamp.as_pointer() in retyped or k in moved) \
+                    and lamp.data.type in SUPPORTED_LIGHTS:
+                _bind_one(node, k, lamp)
+                count += 1
     return count
 
 
@@ -801,10 +815,7 @@ def sync_light_linking(*, handler=None) -> int:
     hybrid = _hybrid_bindings()
     need, unknown = _exclusions({None: True, "render": "context", "update": False}[handler],
                                 hybrid)
-    for lamp in stray_lamps(need):
-        if lamp.library is None:  # linked: read-only here
-            lamp.light_linking.receiver_collection = None
-            changes += 1
+    changes += release_stray_lamps(need)
     if not in_handler:
         changes += _share(need, hybrid)
     for lamp, objects in need.items():
@@ -869,14 +880,14 @@ def stray_lamps(need=None) -> list:
                    and _ours(o.light_linking.receiver_collection)), key=lambda o: o.name)
 
 
-def release_stray_lamps() -> int:
+def release_stray_lamps(need=None) -> int:
     """Take the extension's collection from every lamp bound to no hybrid
-    node (:func:`stray_lamps`; a lamp linked from a library is left: it
-    cannot be changed here).  Reads only which lamps the hybrid nodes are
-    bound to, no object's materials: cheap enough for the viewport's update
-    after objects were added or removed (``ui.on_depsgraph_update_post``).
-    Returns how many lamps."""
-    lamps = [lamp for lamp in stray_lamps() if lamp.library is None]  # linked: read-only
+    node (:func:`stray_lamps`, ``need`` as there; a lamp linked from a
+    library is left: it cannot be changed here).  Without ``need`` it reads
+    only which lamps the hybrid nodes are bound to, no object's materials:
+    cheap enough for the viewport's update after objects were added or
+    removed (``ui.on_depsgraph_update_post``).  Returns how many lamps."""
+    lamps = [lamp for lamp in stray_lamps(need) if lamp.library is None]  # linked: read-only
     for lamp in lamps:
         lamp.light_linking.receiver_collection = None
     return len(lamps)

@@ -2,8 +2,10 @@
 """Shader Editor user interface: the Add menu entries, the sidebar panel,
 their operators, and the handlers: on load and render, a warning when a
 scene using the node groups cannot run OSL; on render and save, the hybrid
-mode's light linking brought up to date; on the viewport's updates, copied
-and deleted bound lamps put right.
+mode's light linking and the lamp bindings brought up to date; on the
+viewport's updates, the same at once where something changed (copied,
+deleted, retyped or moved lamps, objects given or losing a hybrid
+material).
 
 Every class is registered from :data:`CLASSES` (plus the generated variant
 menus), and :func:`unregister` removes exactly what :func:`register` added.
@@ -269,8 +271,8 @@ class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
     bl_label = "Repair Light Linking"
     bl_description = ("Exclude the bound lamps from every object that uses a hybrid material "
                       "(and undo what is no longer needed), set the lights of deleted lamps to "
-                      "strength 0, and bind again lamps whose type or collections changed; "
-                      "also done on render and save")
+                      "strength 0, and bind again lamps whose type, collections or light data "
+                      "changed; also done on render and save")
     bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, _context):
@@ -279,8 +281,8 @@ class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
         n = api.sync_light_linking()
         self.report({'INFO'}, f"Light linking: {n} change(s)"
                     + (f"; {released} light(s) of deleted lamps set to 0" if released else "")
-                    + (f"; {rebound} light(s) bound again for their lamp's new type or "
-                       "collections" if rebound else ""))
+                    + (f"; {rebound} light(s) bound again for their lamp's new type, "
+                       "collections or light data" if rebound else ""))
         return {'FINISHED'}
 
 
@@ -684,7 +686,7 @@ _FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
 _RELEASE_DELETED = (lambda: lighting.release_deleted_lamps(),
                     "release the lights of deleted lamps",
                     "%d light(s) whose lamp was deleted set to strength 0")
-# and for the lamps whose type or collections changed since binding
+# and for the lamps whose type, collections or light data changed since binding
 _REBIND_CHANGED = (lambda: lighting.rebind_changed_lamps(),
                    "bind again a lamp whose type, collections or light data changed",
                    "%d light(s) bound again for their lamp's new type, collections or light "
@@ -711,9 +713,9 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     - when an object's slots got or lost a material with a bound hybrid
       node (a new object with one, Shift D of one, a slot changed; for an
       object that instances or has Geometry Nodes, the materials it
-      renders), when
-      the materials with one changed (a hybrid node deleted, a material
-      removed), and at the first update after the extension was enabled,
+      renders), when the materials with one changed (a hybrid node
+      deleted, a material removed), and at the first update after the
+      extension was enabled,
       a file opened, an undo or a redo: the hybrid exclusions brought up
       to date, reading the depsgraphs Blender keeps (nothing evaluated)
       and linking and unlinking objects only.
@@ -722,9 +724,8 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     question to the depsgraph; one that does, a count of the objects and
     a look at the updated objects' slots, and one of a material or node
     tree (a node edited) a look at the materials' hybrid nodes
-    (``make bench``).
-    Skipped for a render's depsgraph and while a render runs (its handlers
-    have done it)."""
+    (``make bench``).  Skipped for a render's depsgraph and while a render
+    runs (its handlers have done it)."""
     if getattr(depsgraph, "mode", 'VIEWPORT') != 'VIEWPORT':
         return
     is_job_running = getattr(bpy.app, "is_job_running", None)
@@ -744,7 +745,7 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         _logged(lambda: lighting.release_stray_lamps(), "update a copied lamp's light linking",
                 "%d lamp(s) bound to no node now light the hybrid objects")
     try:
-        changed = _exclusions_changed(depsgraph)
+        changed = _exclusions_changed(depsgraph, updated)
     except _FAILURES as exc:
         log.warning("Reflection Models: could not read the objects' material slots: %s", exc)
         return
@@ -752,7 +753,7 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         _update_linking("update")
 
 
-def _exclusions_changed(depsgraph) -> bool:
+def _exclusions_changed(depsgraph, updated) -> bool:
     """Whether the hybrid exclusions may need an update since the last
     update: an object's slots got or lost a material with a bound hybrid
     node, or the set of those materials changed (a hybrid node deleted, a
@@ -760,7 +761,8 @@ def _exclusions_changed(depsgraph) -> bool:
     When nothing was read yet, every object is read, and True if any
     hybrid node is bound.  An object that instances or has Geometry Nodes
     counts with the materials it renders in ``depsgraph`` (a Set Material
-    node's changed, say)."""
+    node's changed, say).  ``updated``: the depsgraph's ``id_type_updated``
+    (None: taken as every type updated)."""
     graph = depsgraph if isinstance(depsgraph, bpy.types.Depsgraph) else None
     seen = _slots_seen[0]
     if seen is None:
@@ -779,7 +781,6 @@ def _exclusions_changed(depsgraph) -> bool:
         if now != before:
             seen[obj.as_pointer()] = now
             changed |= set(now) ^ set(before)
-    updated = getattr(depsgraph, "id_type_updated", None)
     if not changed and updated is not None and not (updated('MATERIAL')
                                                     or updated('NODETREE')):
         return False
@@ -813,8 +814,9 @@ def _logged(step, failed: str, done: str) -> int:
 def _sync_light_linking(in_render=False):
     """Hybrid mode's light linking for objects that got or lost a hybrid
     material since, the lights whose bound lamp was deleted, and those
-    whose lamp's type changed (bound again: measured in a render handler,
-    the render then the same as after binding by hand, to the bit)."""
+    whose lamp's type, collections or light data changed (bound again:
+    measured in a render handler, the render then the same as after
+    binding by hand, to the bit)."""
     _logged(*_RELEASE_DELETED)
     _logged(*_REBIND_CHANGED)
     _update_linking("render" if in_render else None)
