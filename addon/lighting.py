@@ -6,11 +6,11 @@ Binding (:func:`bind_lights`): light k of a node (its inputs ``<name>`` for
 k = 1, ``<name>_<k>`` after) follows lamp k through drivers made of simple
 expressions only (no Python auto-run needed): a sun's direction from its
 world rotation, a point or spot lamp's position from its world location, a
-spot's axis, size and blend, the strength (none while the lamp object is
-disabled in renders) and colour, and whether it casts shadows.  Binding n
-lamps gives
-the node the group variant with n lights (structural: each light costs a
-shadow ray).
+spot's axis, size and blend, the strength (none while the lamp object, or
+a collection it is in, is disabled in renders, or the collection excluded
+from the view layer being rendered) and colour, and whether it casts
+shadows.  Binding n lamps gives the node the group variant with n lights
+(structural: each light costs a shadow ray).
 
 Hybrid mode: the material renders the bound lamps exactly (the Direct
 output) and everything else with the path-traced BSDF.  So that no lamp
@@ -91,6 +91,17 @@ def _prop(data, path):
     return fill
 
 
+def _layer_prop(path):
+    """A driver variable reading ``path`` of the view layer being evaluated
+    (a render's view layer, the viewport's)."""
+    def fill(var):
+        var.type = 'CONTEXT_PROP'
+        target = var.targets[0]
+        target.context_property = 'ACTIVE_VIEW_LAYER'
+        target.data_path = path
+    return fill
+
+
 def _transform(obj, channel):
     def fill(var):
         var.type = 'TRANSFORMS'
@@ -123,6 +134,9 @@ LIGHT_COLOR = "c * (t if u else 1)"
 # c0, c1, ...: the Disable in Renders of the collections the lamp is in, its own and
 # their parents' (a lamp in a collection disabled in renders lights nothing)
 COLLECTION_VAR = re.compile(r"c\d+")
+# v0, v1, ...: whether the view layer being evaluated excludes those collections (a
+# context property, so each view layer's render and the viewport read their own)
+LAYER_VAR = re.compile(r"v\d+")
 
 
 def _collection_parents() -> dict:
@@ -157,6 +171,17 @@ def collection_chain(lamp, parents=None):
             return None
         coll = above[0]
     return chain
+
+
+def layer_paths(chain) -> list:
+    """For each collection of ``chain`` (:func:`collection_chain`, nearest
+    first) the path from a view layer to its layer collection's Exclude
+    switch, which is by the collections' names (a path that no longer
+    resolves, a collection renamed, say, reads as 0: not excluded;
+    measured, 5.2.4 and 4.5.15)."""
+    names = [f'.children["{bpy.utils.escape_identifier(c.name)}"]' for c in reversed(chain)]
+    return ["layer_collection" + "".join(names[:len(chain) - i]) + ".exclude"
+            for i in range(len(chain))]
 
 
 def _check_node(node):
@@ -228,10 +253,11 @@ def _bind_one(node, k, light_object):
     if kind != 'SUN':
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
     chain = collection_chain(light_object) or []
-    for i, coll in enumerate(chain):
+    for i, (coll, path) in enumerate(zip(chain, layer_paths(chain))):
         strength[f"c{i}"] = _prop(coll, "hide_render")
+        strength[f"v{i}"] = _layer_prop(path)
     _drive(sock("light_strength"), -1, (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH)
-           + "".join(f" * (1 - c{i})" for i in range(len(chain))), strength)
+           + "".join(f" * (1 - c{i}) * (1 - v{i})" for i in range(len(chain))), strength)
     # the lamp's Cast Shadow (Cycles honours it: measured in 5.2 and 4.5)
     _drive(sock("shadows"), -1, "s", {"s": _prop(light, "use_shadow")})
     for i in range(3):
@@ -369,21 +395,40 @@ def _renders_in(lamp, layer) -> bool:
     return False
 
 
+def _excluded_in(layer, chain) -> bool:
+    """Whether the view layer ``layer`` excludes a collection of ``chain``
+    (:func:`collection_chain`), its layer collections found by name from
+    the scene's down, as the drivers' paths find them; False where they are
+    not found (a chain in another scene)."""
+    found = layer.layer_collection
+    for coll in reversed(chain):
+        found = found.children.get(coll.name) if found is not None else None
+        if found is None or found.collection != coll:
+            return False
+        if found.exclude:
+            return True
+    return False
+
+
 def unrendered_lamps(node, layer) -> list:
     """The bound lamps of ``node`` that the view layer ``layer`` does not
     render (in no collection of it, or only in collections excluded from it
     or disabled in renders) and with which exact mode lights all the same:
-    its drivers follow the lamp object's Disable in Renders and that of the
-    collections it is in where they are one chain (:func:`collection_chain`,
-    bound as it is now), not a view layer's exclusions (a driver reads no
-    view layer but by its name and its collections' names)."""
-    out = []
+    its drivers follow the lamp object's Disable in Renders, and the
+    Disable in Renders and the view layer's exclusion of the collections
+    it is in where they are one chain (:func:`collection_chain`, bound as
+    it is now), not collections of a lamp in several, nor a lamp in
+    another scene's collections only."""
+    out, parents = [], None
     for k, lamp in _bound_by_light(node):
         if lamp.hide_render or _renders_in(lamp, layer):
             continue
-        chain = collection_chain(lamp)
-        followed = chain is not None and any(c.hide_render for c in chain) \
-            and bound_collections(node, k) == chain
+        parents = _collection_parents() if parents is None else parents
+        chain = collection_chain(lamp, parents)
+        collections, paths, _light = _strength_reads(node, k)
+        followed = chain is not None and collections == chain \
+            and paths == layer_paths(chain) \
+            and (any(c.hide_render for c in chain) or _excluded_in(layer, chain))
         if not followed:
             out.append(lamp)
     return out
@@ -402,21 +447,30 @@ def _strength_driver(node, k):
 
 
 def _strength_reads(node, k):
-    """``(collections, light)`` that light k's strength driver reads: the
-    collections whose Disable in Renders it follows (its variables c0, c1,
-    ...; None for a collection deleted since), nearest first, and the light
-    datablock of its energy; ``(None, None)`` without a driver."""
+    """``(collections, paths, light)`` that light k's strength driver
+    reads: the collections whose Disable in Renders it follows (its
+    variables c0, c1, ...; None for a collection deleted since), nearest
+    first, the view layer's paths to their Exclude switches (v0, v1, ...;
+    none in a binding made before the forty-second session), and the
+    light datablock of its energy; ``(None, None, None)`` without a
+    driver."""
     driver = _strength_driver(node, k)
     if driver is None:
-        return None, None
-    found = sorted((int(v.name[1:]), v.targets[0].id) for v in driver.variables
-                   if COLLECTION_VAR.fullmatch(v.name))
+        return None, None, None
+
+    def by_index(pattern, read):
+        found = sorted((int(v.name[1:]), read(v.targets[0])) for v in driver.variables
+                       if pattern.fullmatch(v.name))
+        return [value for _i, value in found]
+
     energy = driver.variables.get("e")
-    return [coll for _i, coll in found], (energy.targets[0].id if energy is not None else None)
+    return (by_index(COLLECTION_VAR, lambda t: t.id), by_index(LAYER_VAR, lambda t: t.data_path),
+            energy.targets[0].id if energy is not None else None)
 
 
 def bound_collections(node, k) -> list | None:
-    """The collections whose Disable in Renders light k's strength follows
+    """The collections whose Disable in Renders, and exclusion from the
+    view layer being rendered, light k's strength follows
     (:func:`_strength_reads`); None if light k's strength has no driver."""
     return _strength_reads(node, k)[0]
 
@@ -453,16 +507,20 @@ def moved_lamp_lights(node) -> list:
     """The lights k of ``node`` bound by this version (their strength
     follows the lamp's Disable in Renders) whose lamp is no longer in the
     collections binding read (:func:`collection_chain`: moved to another
-    collection, a collection deleted or nested since), or has other light
-    data than binding read (the Object Data's light replaced: the drivers
-    read the old light's strength, colour and cone).  An earlier version's
-    bindings are left (:func:`outdated_bindings` names them)."""
+    collection, a collection deleted, nested or renamed since, the last
+    two changing the view layer's paths to them), whose binding reads no
+    view layer's exclusion of its collections (bound in the fortieth or
+    forty-first session), or that has other light data than binding read
+    (the Object Data's light replaced: the drivers read the old light's
+    strength, colour and cone).  Bindings of the earlier versions are left
+    (:func:`outdated_bindings` names them)."""
     outdated, parents, out = set(outdated_bindings(node)), _collection_parents(), []
     for k, lamp in _bound_by_light(node):
         if lamp in outdated:
             continue
-        collections, light = _strength_reads(node, k)
-        if collections != (collection_chain(lamp, parents) or []) or light != lamp.data:
+        collections, paths, light = _strength_reads(node, k)
+        chain = collection_chain(lamp, parents) or []
+        if collections != chain or paths != layer_paths(chain) or light != lamp.data:
             out.append(k)
     return out
 

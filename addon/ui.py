@@ -530,8 +530,8 @@ def _draw_node(layout, context, node):
     unrendered = (lighting.unrendered_lamps(node, layer)
                   if mode != "path_traced" and layer is not None else [])
     if unrendered:
-        box.label(text="Exact mode lights with lamps this view layer does not render (their "
-                  "collections excluded or disabled in renders): " + ", ".join(
+        box.label(text="Exact mode lights with lamps this view layer does not render (in "
+                  "several collections, or not in this scene): " + ", ".join(
                       o.name for o in unrendered), icon='INFO')
     blocked = lighting.shadow_linked_lamps(node) if mode != "path_traced" else []
     if blocked:
@@ -545,8 +545,8 @@ def _draw_node(layout, context, node):
             else "exact mode follows sun, point and spot lamps"), icon='ERROR')
     moved = lighting.moved_lamp_lights(node) if mode != "path_traced" else []
     if moved:
-        box.label(text="Lamp in other collections, or with other light data, since binding "
-                  "for light " + ", ".join(map(str, moved))
+        box.label(text="Lamp in other or renamed collections, or with other light data, since "
+                  "binding for light " + ", ".join(map(str, moved))
                   + ": bound again at the next update, render or save", icon='ERROR')
     rebind = bool(moved) or any(lamp.data.type in lighting.SUPPORTED_LIGHTS
                                 for lamp, _was in retyped)
@@ -703,9 +703,9 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     exact evaluation):
 
     - after a light or a collection was edited: a bound lamp whose type
-      changed (a sun made a spot lamp), that is now in other collections
-      (whose Disable in Renders its strength follows) or that has other
-      light data bound again;
+      changed (a sun made a spot lamp), that is now in other or renamed
+      collections (whose Disable in Renders and view-layer exclusion its
+      strength follows) or that has other light data bound again;
     - after objects were added or removed (their number changed): a copy
       of a bound lamp, which Blender gives the original's light linking,
       has the extension's collection taken away, and the lights of a

@@ -314,11 +314,19 @@ def test_bind_light_rejects_other_lamps_and_nodes(api, bpy):
 def test_bound_light_survives_save_and_reload_in_a_fresh_process(api, bpy, tmp_path):
     """The drivers are evaluated in a process with no extension and no Python
     auto-run: the sun's rotation is animated, the file is saved at frame 1
-    and rendered at frame 10, where only the drivers know the direction."""
+    and rendered at frame 10, where only the drivers know the direction.
+    The sun is in a collection of the scene's: saved again with that
+    collection excluded from the view layer, the file renders black there
+    (the strength driver's context property read in that process too)."""
     mat = new_material(bpy)
     params = {"exponent": 25.0}
     node = api.add_model(mat, "phong", mode="exact", **params)
     g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=RES, name="fresh")
+    rig = bpy.data.collections.new("fresh rig")
+    g.scene.collection.children.link(rig)
+    for coll in list(g.sun.users_collection):
+        coll.objects.unlink(g.sun)
+    rig.objects.link(g.sun)
     api.bind_light(node, g.sun)
     end_dir = gonio.normalize((-0.35, -0.3, 0.88))
     sun = g.sun
@@ -342,6 +350,10 @@ def test_bound_light_survives_save_and_reload_in_a_fresh_process(api, bpy, tmp_p
     stats = common.compare(img, moved.reference("phong", **params), moved.mask)
     print(f"\nfresh process, frame 10: max rel {stats['max_rel_error']:.2e}")
     assert stats["max_rel_error"] < 1e-3, stats
+    g.scene.view_layers[0].layer_collection.children[rig.name].exclude = True
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    bpy_env.render_in_fresh_process(path, out, scene=g.scene.name, frame=10)
+    assert not common.read_exr(out)[moved.mask].any()
 
 
 def test_apply_metal_makes_a_conductor_with_the_measured_index(api, bpy):

@@ -1098,6 +1098,71 @@ def test_exact_mode_follows_the_disable_in_renders_of_the_lamps_collections(
         lighting.remove_binding(api, node, g.scene, mat, [outer, inner, away])
 
 
+def test_exact_mode_follows_the_view_layers_exclusion_of_the_lamps_collections(
+        bpy, installed_extension):
+    """A view layer that excludes a collection renders none of its lamps;
+    exact mode's strength driver reads each collection's Exclude switch in
+    the view layer being rendered (a context property), so each view layer
+    has its own (measured before: the sun's collection excluded, exact
+    mode lit the tiles as before).  Two view layers, the sun in a
+    collection nested in another: excluding either collection in the
+    second renders it black and leaves the first's render as it was (1e-6
+    relative: the same scene and drivers, float32).  The paths are by name:
+    a collection renamed with the viewport's handler out is bound again by
+    the render handler, and its exclusion followed; a binding that reads no
+    exclusion (as made by the forty-first session) is bound again at the
+    viewport's next update."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_layers",
+                                                          "exact")
+    outer = bpy.data.collections.new("rm_ll_layers outer")
+    inner = bpy.data.collections.new("rm_ll_layers inner")
+    g.scene.collection.children.link(outer)
+    outer.children.link(inner)
+    for coll in list(g.sun.users_collection):
+        coll.objects.unlink(g.sun)
+    inner.objects.link(g.sun)
+    first = g.scene.view_layers[0]
+    second = g.scene.view_layers.new("rm_ll_layers second")
+
+    def render(layer):
+        for each in g.scene.view_layers:
+            each.use = each == layer
+        return g.render()
+
+    def switch(layer, coll):
+        found = layer.layer_collection.children[outer.name]
+        return found if coll == outer else found.children[inner.name]
+
+    try:
+        api.bind_light(node, g.sun)
+        lit = render(first)
+        assert lit[g.lit].min() > 0
+        for coll in (inner, outer):
+            switch(second, coll).exclude = True
+            assert not render(second)[g.mask].any(), coll.name
+            assert np.allclose(render(first), lit, rtol=1e-6, atol=0), coll.name
+            switch(second, coll).exclude = False
+        assert np.allclose(render(second), lit, rtol=1e-6, atol=0)
+        with _ViewportHandlerOff(bpy):
+            outer.name = "rm_ll_layers renamed"
+            assert linking.moved_lamp_lights(node) == [1]
+            switch(first, outer).exclude = True
+            assert not render(first)[g.mask].any()
+            assert linking.moved_lamp_lights(node) == []
+            switch(first, outer).exclude = False
+            driver = linking._strength_driver(node, 1)
+            for var in [v for v in driver.variables if linking.LAYER_VAR.fullmatch(v.name)]:
+                driver.variables.remove(var)
+            driver.expression = driver.expression.replace(" * (1 - v0)", "") \
+                .replace(" * (1 - v1)", "")
+            assert linking.moved_lamp_lights(node) == [1]
+        first.update()
+        assert linking.moved_lamp_lights(node) == []
+        assert np.allclose(render(first), lit, rtol=1e-6, atol=0)
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [outer, inner])
+
+
 def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
     """Binding's drivers read the lamp's light datablock (strength, colour,
     cone); a lamp object given another light datablock (the Object Data

@@ -817,8 +817,8 @@ def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
     rig = bpy.data.collections.new("rm moved rig")
     scene.collection.children.link(rig)
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
-    message = ("Lamp in other collections, or with other light data, since binding for light "
-               "1: bound again at the next update, render or save")
+    message = ("Lamp in other or renamed collections, or with other light data, since binding "
+               "for light 1: bound again at the next update, render or save")
     handlers = bpy.app.handlers.depsgraph_update_post
     handlers.remove(ui.on_depsgraph_update_post)
     try:
@@ -838,12 +838,14 @@ def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
 
 
 def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bpy):
-    """Exact mode's drivers follow the lamp object's Disable in Renders and
-    that of the collections it is in where they are one chain
-    (tests/test_lighting.py renders it), not a view layer's exclusions, nor
-    collections when the lamp is in several (it renders where any of them
-    does): the sidebar names a bound lamp the view layer does not render
-    when the drivers do not follow that."""
+    """Exact mode's drivers follow the lamp object's Disable in Renders, and
+    the Disable in Renders and the view layer's exclusion of the
+    collections it is in where they are one chain (tests/test_lighting.py
+    renders it), not collections when the lamp is in several (it renders
+    where any of them does), nor a lamp in another scene only: the sidebar
+    names a bound lamp the view layer does not render when the drivers do
+    not follow that.  A renamed collection is bound again at the update,
+    and its exclusion followed."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm unrendered")
     rig = bpy.data.collections.new("rm unrendered rig")
     other = bpy.data.collections.new("rm unrendered other")
@@ -854,8 +856,8 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
     layer = scene.view_layers[0]
     ctx = shader_editor(scene=scene, view_layer=layer, active_node=node, active_object=None,
                         selected_objects=[])
-    message = ("Exact mode lights with lamps this view layer does not render (their collections "
-               "excluded or disabled in renders): rm unrendered sun")
+    message = ("Exact mode lights with lamps this view layer does not render (in several "
+               "collections, or not in this scene): rm unrendered sun")
 
     def said():
         layer.update()  # Blender builds the layer collections lazily; the UI has them
@@ -867,8 +869,12 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
         rig.hide_render = True  # followed by the drivers
         assert not said()
         rig.hide_render = False
-        layer.layer_collection.children[rig.name].exclude = True  # not followed
-        assert said()
+        layer.layer_collection.children[rig.name].exclude = True  # followed by the drivers
+        assert not said()
+        layer.layer_collection.children[rig.name].exclude = False
+        rig.name = "rm unrendered rig renamed"  # its path changed: bound again at the update
+        layer.layer_collection.children[rig.name].exclude = True
+        assert not said()
         layer.layer_collection.children[rig.name].exclude = False
         other.objects.link(sun)  # in two collections: rendered where either renders
         rig.hide_render = other.hide_render = True
@@ -879,6 +885,14 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
         assert not said()  # in the rig alone again, bound again at the update: followed
         sun.hide_render = True  # followed by the drivers: nothing to say
         assert not said()
+        sun.hide_render = False
+        elsewhere = bpy.data.scenes.new("rm unrendered elsewhere")
+        elsewhere.collection.children.link(other)
+        scene.collection.children.unlink(other)
+        other.objects.link(sun)
+        rig.objects.unlink(sun)  # in another scene's collection only
+        assert said()
+        bpy.data.scenes.remove(elsewhere)
     finally:
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig, other])
 
