@@ -6,10 +6,10 @@ Binding (:func:`bind_lights`): light k of a node (its inputs ``<name>`` for
 k = 1, ``<name>_<k>`` after) follows lamp k through drivers made of simple
 expressions only (no Python auto-run needed): a sun's direction from its
 world rotation, a point or spot lamp's position from its world location, a
-spot's axis, size and blend, the strength (none while the lamp object, or
-a collection it is in, is disabled in renders, or the collection excluded
-from the view layer being rendered) and colour, and whether it casts
-shadows.  Binding n lamps gives the node the group variant with n lights
+spot's axis, size and blend, the strength (none while the lamp object is
+disabled in renders, or while every way down to it from the scene's
+collection has a collection disabled in renders or excluded from the view
+layer being rendered) and colour, and whether it casts shadows.  Binding n lamps gives the node the group variant with n lights
 (structural: each light costs a shadow ray).
 
 Hybrid mode: the material renders the bound lamps exactly (the Direct
@@ -132,7 +132,7 @@ POINT_STRENGTH = ("e * pow(2, x) * (1 / (4 * pi) if n else (r * r if r > 0 else 
                   " * (1 - h)")
 LIGHT_COLOR = "c * (t if u else 1)"
 # c0, c1, ...: the Disable in Renders of the collections the lamp is in, its own and
-# their parents' (a lamp in a collection disabled in renders lights nothing)
+# their parents' (a lamp only in collections disabled in renders lights nothing)
 COLLECTION_VAR = re.compile(r"c\d+")
 # v0, v1, ...: whether the view layer being evaluated excludes those collections (a
 # context property, so each view layer's render and the viewport read their own)
@@ -149,39 +149,73 @@ def _collection_parents() -> dict:
     return parents
 
 
-def collection_chain(lamp, parents=None):
-    """The collections whose Disable in Renders decides whether ``lamp``
-    renders: the one collection it is in and that one's parents up to a
-    scene's collection (which has no such switch), nearest first; ``[]``
-    for a lamp in a scene's collection only; None where it is not one
-    chain (the lamp in several collections, or a collection with several
-    parents: it renders where any path does, which a product of switches
-    cannot say; the sidebar names such a lamp when it is not rendered).
-    ``parents``: :func:`_collection_parents`, read here if None."""
+# the most ways down to a lamp that its strength driver follows (each adds a term to a max)
+MAX_PATHS = 8
+
+
+def collection_paths(lamp, parents=None):
+    """The ways down from a scene's collection to ``lamp``, each the
+    collections on it, nearest first: the lamp renders where every
+    collection on one of them renders (enabled in renders, not excluded
+    from the view layer; measured: Cycles renders a lamp in two
+    collections, or in a collection with two parents, while any way
+    renders).  ``[[]]`` for a lamp in a scene's collection itself (no
+    switch decides).  None where the drivers cannot follow them: a way
+    up ends in no scene (an instanced lamp), the ways come down from
+    several scenes' collections (a view layer finds another scene's by
+    name only), or there are more than ``MAX_PATHS``.  ``parents``:
+    :func:`_collection_parents`, read here if None."""
     masters = {scene.collection.as_pointer() for scene in bpy.data.scenes}
-    direct = list(lamp.users_collection)
-    if len(direct) != 1:
-        return None
     parents = _collection_parents() if parents is None else parents
-    chain, coll = [], direct[0]
-    while coll.as_pointer() not in masters:
-        chain.append(coll)
+    paths, tops, todo = [], set(), [(coll, []) for coll in lamp.users_collection]
+    while todo:
+        coll, below = todo.pop()
+        if coll.as_pointer() in masters:
+            paths.append(below)
+            tops.add(coll.as_pointer())
+            continue
         above = parents.get(coll.as_pointer(), [])
-        if len(above) != 1:  # several parents, or in no scene (an instanced lamp)
-            return None
-        coll = above[0]
-    return chain
+        if not above or len(paths) + len(todo) + len(above) > MAX_PATHS:
+            return None  # in no scene (an instanced lamp), or too many ways
+        todo.extend((parent, below + [coll]) for parent in above)
+    if len(tops) != 1:
+        return None
+    return [[]] if [] in paths else sorted(paths, key=lambda p: [c.name for c in p])
 
 
 def layer_paths(chain) -> list:
-    """For each collection of ``chain`` (:func:`collection_chain`, nearest
-    first) the path from a view layer to its layer collection's Exclude
-    switch, which is by the collections' names (a path that no longer
-    resolves, a collection renamed, say, reads as 0: not excluded;
-    measured, 5.2.4 and 4.5.15)."""
+    """For each collection of ``chain`` (a way of :func:`collection_paths`,
+    nearest first) the path from a view layer to its layer collection's
+    Exclude switch on that way, which is by the collections' names (a path
+    that no longer resolves, a collection renamed, say, reads as 0: not
+    excluded; measured, 5.2.4 and 4.5.15)."""
     names = [f'.children["{bpy.utils.escape_identifier(c.name)}"]' for c in reversed(chain)]
     return ["layer_collection" + "".join(names[:len(chain) - i]) + ".exclude"
             for i in range(len(chain))]
+
+
+def collection_factor(paths):
+    """``(expression, collections, layer paths)`` for the ways ``paths``
+    (:func:`collection_paths`; None or ``[[]]``: ``("", [], [])``): the
+    factor of the strength driver that is 1 where the lamp renders and 0
+    where it does not, the product of ``(1 - c_i) * (1 - v_j)`` along each
+    way and their ``max`` for several ways, with ``c_i`` the Disable in
+    Renders of ``collections[i]`` and ``v_j`` the Exclude switch at
+    ``layer paths[j]``."""
+    collections, switches, terms = [], [], []
+    for chain in paths or ():
+        factors = []
+        for coll, path in zip(chain, layer_paths(chain)):
+            if coll not in collections:
+                collections.append(coll)
+            if path not in switches:
+                switches.append(path)
+            factors.append(f"(1 - c{collections.index(coll)}) * (1 - v{switches.index(path)})")
+        terms.append(" * ".join(factors))
+    if not terms or "" in terms:
+        return "", [], []
+    return (" * " + terms[0] if len(terms) == 1 else " * max(" + ", ".join(terms) + ")",
+            collections, switches)
 
 
 def _check_node(node):
@@ -252,12 +286,11 @@ def _bind_one(node, k, light_object):
                 HIDDEN: _prop(light_object, "hide_render")}
     if kind != 'SUN':
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
-    chain = collection_chain(light_object) or []
-    for i, (coll, path) in enumerate(zip(chain, layer_paths(chain))):
-        strength[f"c{i}"] = _prop(coll, "hide_render")
-        strength[f"v{i}"] = _layer_prop(path)
-    _drive(sock("light_strength"), -1, (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH)
-           + "".join(f" * (1 - c{i}) * (1 - v{i})" for i in range(len(chain))), strength)
+    factor, collections, switches = collection_factor(collection_paths(light_object))
+    strength.update({f"c{i}": _prop(coll, "hide_render") for i, coll in enumerate(collections)})
+    strength.update({f"v{j}": _layer_prop(path) for j, path in enumerate(switches)})
+    _drive(sock("light_strength"), -1,
+           (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH) + factor, strength)
     # the lamp's Cast Shadow (Cycles honours it: measured in 5.2 and 4.5)
     _drive(sock("shadows"), -1, "s", {"s": _prop(light, "use_shadow")})
     for i in range(3):
@@ -397,9 +430,9 @@ def _renders_in(lamp, layer) -> bool:
 
 def _excluded_in(layer, chain) -> bool:
     """Whether the view layer ``layer`` excludes a collection of ``chain``
-    (:func:`collection_chain`), its layer collections found by name from
-    the scene's down, as the drivers' paths find them; False where they are
-    not found (a chain in another scene)."""
+    (a way of :func:`collection_paths`), its layer collections found by
+    name from the scene's down, as the drivers' paths find them; False
+    where they are not found (a way in another scene)."""
     found = layer.layer_collection
     for coll in reversed(chain):
         found = found.children.get(coll.name) if found is not None else None
@@ -415,20 +448,21 @@ def unrendered_lamps(node, layer) -> list:
     render (in no collection of it, or only in collections excluded from it
     or disabled in renders) and with which exact mode lights all the same:
     its drivers follow the lamp object's Disable in Renders, and the
-    Disable in Renders and the view layer's exclusion of the collections
-    it is in where they are one chain (:func:`collection_chain`, bound as
-    it is now), not collections of a lamp in several, nor a lamp in
-    another scene's collections only."""
+    Disable in Renders and the view layer's exclusion of the collections on
+    every way down to it from its scene's collection
+    (:func:`collection_paths`, bound as they are now), not a lamp in
+    another scene only, nor one :func:`collection_paths` cannot follow
+    (the sidebar names these)."""
     out, parents = [], None
     for k, lamp in _bound_by_light(node):
         if lamp.hide_render or _renders_in(lamp, layer):
             continue
         parents = _collection_parents() if parents is None else parents
-        chain = collection_chain(lamp, parents)
-        collections, paths, _light = _strength_reads(node, k)
-        followed = chain is not None and collections == chain \
-            and paths == layer_paths(chain) \
-            and (any(c.hide_render for c in chain) or _excluded_in(layer, chain))
+        ways = collection_paths(lamp, parents)
+        _factor, collections, switches = collection_factor(ways)
+        followed = ways is not None and _strength_reads(node, k)[:2] == (collections, switches) \
+            and all(any(c.hide_render for c in chain) or _excluded_in(layer, chain)
+                    for chain in ways)
         if not followed:
             out.append(lamp)
     return out
@@ -506,11 +540,12 @@ def retyped_lamps(node) -> list:
 def moved_lamp_lights(node) -> list:
     """The lights k of ``node`` bound by this version (their strength
     follows the lamp's Disable in Renders) whose lamp is no longer in the
-    collections binding read (:func:`collection_chain`: moved to another
-    collection, a collection deleted, nested or renamed since, the last
-    two changing the view layer's paths to them), whose binding reads no
-    view layer's exclusion of its collections (bound in the fortieth or
-    forty-first session), or that has other light data than binding read
+    collections binding read (:func:`collection_paths`: moved to another
+    collection or linked into one more, a collection deleted, nested or
+    renamed since, the last two changing the view layer's paths to them),
+    whose binding reads no view layer's exclusion of its collections, or
+    none of a lamp in several (bound in the fortieth or forty-first
+    session), or that has other light data than binding read
     (the Object Data's light replaced: the drivers read the old light's
     strength, colour and cone).  Bindings of the earlier versions are left
     (:func:`outdated_bindings` names them)."""
@@ -518,9 +553,9 @@ def moved_lamp_lights(node) -> list:
     for k, lamp in _bound_by_light(node):
         if lamp in outdated:
             continue
-        collections, paths, light = _strength_reads(node, k)
-        chain = collection_chain(lamp, parents) or []
-        if collections != chain or paths != layer_paths(chain) or light != lamp.data:
+        collections, switches, light = _strength_reads(node, k)
+        _factor, *expected = collection_factor(collection_paths(lamp, parents))
+        if [collections, switches] != expected or light != lamp.data:
             out.append(k)
     return out
 

@@ -531,7 +531,7 @@ def _draw_node(layout, context, node):
                   if mode != "path_traced" and layer is not None else [])
     if unrendered:
         box.label(text="Exact mode lights with lamps this view layer does not render (in "
-                  "several collections, or not in this scene): " + ", ".join(
+                  "another scene's collections, or instanced): " + ", ".join(
                       o.name for o in unrendered), icon='INFO')
     blocked = lighting.shadow_linked_lamps(node) if mode != "path_traced" else []
     if blocked:

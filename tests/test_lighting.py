@@ -1163,6 +1163,94 @@ def test_exact_mode_follows_the_view_layers_exclusion_of_the_lamps_collections(
         lighting.remove_binding(api, node, g.scene, mat, [outer, inner])
 
 
+def test_exact_mode_follows_a_lamp_in_several_collections_as_cycles_renders_it(
+        bpy, installed_extension):
+    """Cycles renders a lamp while any way down to it from the scene's
+    collection renders (every collection on it enabled in renders and not
+    excluded from the view layer); exact mode's strength driver takes the
+    max over the ways of their products of switches.  The sun in two
+    sibling collections, then in a collection with those two as parents,
+    then in the scene's collection and one of them, under each setting
+    of the switches: the exact render equals the path-traced one, lit or
+    black as Cycles has it (1e-4 relative: Lambert's closure is the model,
+    float32; both black where the lamp does not render), and each setting
+    is checked to be the one expected (before this session, a lamp in
+    several collections was not followed: lit in exact mode, black path
+    traced, with both collections disabled)."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_ways",
+                                                          "exact")
+    a, b, d = (bpy.data.collections.new("rm_ll_ways " + k) for k in "abd")
+    for coll in (a, b):
+        g.scene.collection.children.link(coll)
+        coll.children.link(d)
+    for coll in list(g.sun.users_collection):
+        coll.objects.unlink(g.sun)
+    layer = g.scene.view_layers[0]
+
+    def switch(*names):
+        found = layer.layer_collection
+        for name in names:
+            found = found.children[name]
+        return found
+
+    def check(lit, setting):
+        layer.update()  # the viewport's handler binds a moved lamp again
+        assert linking.moved_lamp_lights(node) == [], setting
+        images = []
+        for mode in ("path_traced", "exact"):
+            api.set_mode(node, mode)
+            images.append(g.render())
+        traced, exact = images
+        assert bool(traced[g.mask].any()) == lit, setting
+        assert np.allclose(exact, traced, rtol=1e-4, atol=0), setting
+
+    def reset():
+        for coll in (a, b, d):
+            coll.hide_render = False
+        for names in ((a.name,), (b.name,), (a.name, d.name), (b.name, d.name)):
+            switch(*names).exclude = False
+
+    try:
+        a.objects.link(g.sun)
+        b.objects.link(g.sun)
+        api.bind_light(node, g.sun)
+        check(True, "a and b")
+        a.hide_render = True
+        check(True, "a disabled")
+        b.hide_render = True
+        check(False, "a and b disabled")
+        a.hide_render = False
+        switch(a.name).exclude = True
+        check(False, "a excluded, b disabled")
+        b.hide_render = False
+        check(True, "a excluded")
+        reset()
+        a.objects.unlink(g.sun)
+        b.objects.unlink(g.sun)
+        d.objects.link(g.sun)
+        check(True, "d, a child of a and b")
+        switch(a.name).exclude = True
+        check(True, "d: a excluded")
+        switch(b.name).exclude = True
+        check(False, "d: a and b excluded")
+        switch(a.name).exclude = switch(b.name).exclude = False
+        switch(a.name, d.name).exclude = True
+        b.hide_render = True
+        check(False, "d excluded under a, b disabled")
+        reset()
+        d.hide_render = True
+        check(False, "d disabled")
+        reset()
+        d.objects.unlink(g.sun)
+        g.scene.collection.objects.link(g.sun)
+        a.objects.link(g.sun)
+        a.hide_render = True
+        check(True, "in the scene's collection and a disabled")
+    finally:
+        reset()
+        lighting.remove_binding(api, node, g.scene, mat, [a, b, d])
+
+
 def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
     """Binding's drivers read the lamp's light datablock (strength, colour,
     cone); a lamp object given another light datablock (the Object Data

@@ -840,12 +840,12 @@ def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
 def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bpy):
     """Exact mode's drivers follow the lamp object's Disable in Renders, and
     the Disable in Renders and the view layer's exclusion of the
-    collections it is in where they are one chain (tests/test_lighting.py
-    renders it), not collections when the lamp is in several (it renders
-    where any of them does), nor a lamp in another scene only: the sidebar
-    names a bound lamp the view layer does not render when the drivers do
-    not follow that.  A renamed collection is bound again at the update,
-    and its exclusion followed."""
+    collections on every way down to it from the scene's collection (a
+    lamp in several renders while any way does; tests/test_lighting.py
+    renders it), not a lamp in another scene's collections, alone or as
+    well: the sidebar names a bound lamp the view layer does not render
+    when the drivers do not follow that.  A renamed collection is bound
+    again at the update, and its exclusion followed."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm unrendered")
     rig = bpy.data.collections.new("rm unrendered rig")
     other = bpy.data.collections.new("rm unrendered other")
@@ -856,8 +856,8 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
     layer = scene.view_layers[0]
     ctx = shader_editor(scene=scene, view_layer=layer, active_node=node, active_object=None,
                         selected_objects=[])
-    message = ("Exact mode lights with lamps this view layer does not render (in several "
-               "collections, or not in this scene): rm unrendered sun")
+    message = ("Exact mode lights with lamps this view layer does not render (in another "
+               "scene's collections, or instanced): rm unrendered sun")
 
     def said():
         layer.update()  # Blender builds the layer collections lazily; the UI has them
@@ -878,7 +878,7 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
         layer.layer_collection.children[rig.name].exclude = False
         other.objects.link(sun)  # in two collections: rendered where either renders
         rig.hide_render = other.hide_render = True
-        assert said()
+        assert not said()  # followed: bound again at the update, the max over the two ways
         other.hide_render = False  # rendered through the other one
         assert not said()
         other.objects.unlink(sun)
@@ -890,6 +890,9 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
         elsewhere.collection.children.link(other)
         scene.collection.children.unlink(other)
         other.objects.link(sun)
+        rig.hide_render = True  # in another scene's collection as well: not followed
+        assert said()
+        rig.hide_render = False
         rig.objects.unlink(sun)  # in another scene's collection only
         assert said()
         bpy.data.scenes.remove(elsewhere)
