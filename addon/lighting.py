@@ -537,7 +537,7 @@ def retyped_lamps(node) -> list:
     return out
 
 
-def moved_lamp_lights(node) -> list:
+def moved_lamp_lights(node, parents=None) -> list:
     """The lights k of ``node`` bound by this version (their strength
     follows the lamp's Disable in Renders) whose lamp is no longer in the
     collections binding read (:func:`collection_paths`: moved to another
@@ -548,8 +548,10 @@ def moved_lamp_lights(node) -> list:
     session), or that has other light data than binding read
     (the Object Data's light replaced: the drivers read the old light's
     strength, colour and cone).  Bindings of the earlier versions are left
-    (:func:`outdated_bindings` names them)."""
-    outdated, parents, out = set(outdated_bindings(node)), _collection_parents(), []
+    (:func:`outdated_bindings` names them).  ``parents``:
+    :func:`_collection_parents`, read here if None."""
+    outdated, out = set(outdated_bindings(node)), []
+    parents = _collection_parents() if parents is None else parents
     for k, lamp in _bound_by_light(node):
         if lamp in outdated:
             continue
@@ -568,10 +570,10 @@ def rebind_changed_lamps() -> int:
     it now would make them.  An area lamp is left as it is (exact mode
     follows none; the sidebar names it).  In every material's RM nodes but
     linked ones.  Returns how many lights."""
-    count = 0
+    count, parents = 0, _collection_parents()
     for node in _local_rm_nodes():
         retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)}
-        moved = set(moved_lamp_lights(node))
+        moved = set(moved_lamp_lights(node, parents))
         for k, lamp in _bound_by_light(node):
             if (lamp.as_pointer() in retyped or k in moved) \
                     and lamp.data.type in SUPPORTED_LIGHTS:
