@@ -9,7 +9,9 @@ world rotation, a point or spot lamp's position from its world location, a
 spot's axis, size and blend, the strength (none while the lamp object is
 disabled in renders, or while every way down to it from the scene's
 collection has a collection disabled in renders or excluded from the view
-layer being rendered) and colour, and whether it casts shadows.  Binding n lamps gives the node the group variant with n lights
+layer being rendered, or while its ray visibility for the model's kind of
+surface, diffuse or glossy, is off) and colour, and whether it casts
+shadows.  Binding n lamps gives the node the group variant with n lights
 (structural: each light costs a shadow ray).
 
 Hybrid mode: the material renders the bound lamps exactly (the Direct
@@ -137,6 +139,22 @@ COLLECTION_VAR = re.compile(r"c\d+")
 # v0, v1, ...: whether the view layer being evaluated excludes those collections (a
 # context property, so each view layer's render and the viewport read their own)
 LAYER_VAR = re.compile(r"v\d+")
+# ray: the lamp object's ray visibility for the kind of surface the model is in
+# Cycles' and EEVEE's terms (measured in 5.2.4 and 4.5.15, both engines: a lamp
+# with Diffuse off lights no diffuse closure, with Glossy off no glossy one)
+RAY = "ray"
+RAY_VISIBILITY = {"lambert": "visible_diffuse", "phong": "visible_glossy",
+                  "blinn_phong": "visible_glossy", "microfacet": "visible_glossy",
+                  "ward": "visible_glossy"}  # Kajiya-Kay is both: not followed
+
+
+def ray_visibility(node) -> str | None:
+    """The lamp object's property (``visible_diffuse``, ``visible_glossy``)
+    that decides whether a lamp lights ``node``'s model in path tracing,
+    which its strength driver follows; None for Kajiya-Kay, whose diffuse
+    and specular terms share one light."""
+    info = groups.rm_info(getattr(node, "node_tree", None))
+    return RAY_VISIBILITY.get(info[0]) if info else None
 
 
 def _collection_parents() -> dict:
@@ -284,13 +302,16 @@ def _bind_one(node, k, light_object):
         _drive(sock("spot_blend"), -1, "b", {"b": _prop(light, "spot_blend")})
     strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure"),
                 HIDDEN: _prop(light_object, "hide_render")}
+    ray = ray_visibility(node)
+    if ray is not None:
+        strength[RAY] = _prop(light_object, ray)
     if kind != 'SUN':
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
     factor, collections, switches = collection_factor(collection_paths(light_object))
     strength.update({f"c{i}": _prop(coll, "hide_render") for i, coll in enumerate(collections)})
     strength.update({f"v{j}": _layer_prop(path) for j, path in enumerate(switches)})
-    _drive(sock("light_strength"), -1,
-           (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH) + factor, strength)
+    _drive(sock("light_strength"), -1, (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH)
+           + (f" * {RAY}" if ray is not None else "") + factor, strength)
     # the lamp's Cast Shadow (Cycles honours it: measured in 5.2 and 4.5)
     _drive(sock("shadows"), -1, "s", {"s": _prop(light, "use_shadow")})
     for i in range(3):
@@ -502,6 +523,14 @@ def _strength_reads(node, k):
             energy.targets[0].id if energy is not None else None)
 
 
+def _ray_read(node, k) -> str | None:
+    """The lamp object's ray visibility property light k's strength driver
+    reads, or None."""
+    driver = _strength_driver(node, k)
+    var = driver.variables.get(RAY) if driver is not None else None
+    return var.targets[0].data_path if var is not None else None
+
+
 def bound_collections(node, k) -> list | None:
     """The collections whose Disable in Renders, and exclusion from the
     view layer being rendered, light k's strength follows
@@ -517,6 +546,39 @@ def shadow_linked_lamps(node) -> list:
     exact render and not the path-traced one)."""
     return [lamp for lamp in bound_lights(node)
             if lamp.light_linking.blocker_collection is not None]
+
+
+def unfollowed_ray_lamps(node) -> list:
+    """The bound lamps of a Kajiya-Kay node with the Diffuse or Glossy ray
+    visibility off: its diffuse and specular terms share one light, so its
+    strength follows neither (the path-traced output loses that part)."""
+    if not is_kajiya_kay(node):
+        return []
+    return [lamp for lamp in bound_lights(node)
+            if not (lamp.visible_diffuse and lamp.visible_glossy)]
+
+
+def is_kajiya_kay(node) -> bool:
+    info = groups.rm_info(getattr(node, "node_tree", None))
+    return info is not None and info[0] == "kajiya_kay"
+
+
+EEVEE_ENGINES = ("BLENDER_EEVEE", "BLENDER_EEVEE_NEXT")
+
+
+def eevee_factor_lamps(node, scene) -> list:
+    """The bound lamps whose light has a Diffuse or Specular factor other
+    than 1 (the model's kind: :func:`ray_visibility`; both for Kajiya-Kay)
+    when ``scene`` renders in EEVEE, which scales each kind of closure's
+    light by them (measured, 5.2.4 and 4.5.15; Cycles ignores them): exact
+    mode does not follow them, a driver having no way to know the engine."""
+    if getattr(getattr(scene, "render", None), "engine", "") not in EEVEE_ENGINES:
+        return []
+    ray = ray_visibility(node)
+    names = {"visible_diffuse": ("diffuse_factor",), "visible_glossy": ("specular_factor",),
+             None: ("diffuse_factor", "specular_factor")}[ray]
+    return [lamp for lamp in bound_lights(node)
+            if any(getattr(lamp.data, name, 1.0) != 1.0 for name in names)]
 
 
 def retyped_lamps(node) -> list:
@@ -544,7 +606,8 @@ def moved_lamp_lights(node, parents=None) -> list:
     collection or linked into one more, a collection deleted, nested or
     renamed since, the last two changing the view layer's paths to them),
     whose binding reads no view layer's exclusion of its collections, or
-    none of a lamp in several (bound in the fortieth or forty-first
+    none of a lamp in several, or not the lamp's ray visibility
+    (:func:`ray_visibility`; bound in the fortieth or forty-first
     session), or that has other light data than binding read
     (the Object Data's light replaced: the drivers read the old light's
     strength, colour and cone).  Bindings of the earlier versions are left
@@ -557,7 +620,8 @@ def moved_lamp_lights(node, parents=None) -> list:
             continue
         collections, switches, light = _strength_reads(node, k)
         _factor, *expected = collection_factor(collection_paths(lamp, parents))
-        if [collections, switches] != expected or light != lamp.data:
+        if [collections, switches] != expected or light != lamp.data \
+                or _ray_read(node, k) != ray_visibility(node):
             out.append(k)
     return out
 

@@ -537,6 +537,15 @@ def _draw_node(layout, context, node):
     if blocked:
         box.label(text="Shadow linking not followed: exact mode's shadow ray sees every object "
                   "for " + ", ".join(o.name for o in blocked), icon='INFO')
+    rays = lighting.unfollowed_ray_lamps(node) if mode != "path_traced" else []
+    if rays:
+        box.label(text="Ray visibility not followed (Kajiya-Kay's diffuse and specular terms "
+                  "share one light): " + ", ".join(o.name for o in rays), icon='INFO')
+    factors = (lighting.eevee_factor_lamps(node, context.scene)
+               if mode != "path_traced" else [])
+    if factors:
+        box.label(text="EEVEE's Diffuse and Specular light factors not followed by exact mode: "
+                  + ", ".join(o.name for o in factors), icon='INFO')
     retyped = lighting.retyped_lamps(node) if mode != "path_traced" else []
     for lamp, was in retyped:
         box.label(text=f"{lamp.name}: bound as {was.title()}, now {lamp.data.type.title()}: " + (
@@ -545,8 +554,9 @@ def _draw_node(layout, context, node):
             else "exact mode follows sun, point and spot lamps"), icon='ERROR')
     moved = lighting.moved_lamp_lights(node) if mode != "path_traced" else []
     if moved:
-        box.label(text="Lamp in other or renamed collections, or with other light data, since "
-                  "binding for light " + ", ".join(map(str, moved))
+        box.label(text="Lamp in other or renamed collections or with other light data since "
+                  "binding, or bound by an older version, for light " + ", ".join(
+                      map(str, moved))
                   + ": bound again at the next update, render or save", icon='ERROR')
     rebind = bool(moved) or any(lamp.data.type in lighting.SUPPORTED_LIGHTS
                                 for lamp, _was in retyped)

@@ -1251,6 +1251,57 @@ def test_exact_mode_follows_a_lamp_in_several_collections_as_cycles_renders_it(
         lighting.remove_binding(api, node, g.scene, mat, [a, b, d])
 
 
+@pytest.mark.parametrize("model", ["lambert", "trowbridge_reitz"])
+def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, model):
+    """A lamp with its Diffuse ray visibility off lights no diffuse closure
+    in Cycles, with Glossy off no glossy one; exact mode's strength driver
+    reads the one for the model's kind (measured before: exact mode lit as
+    before).  Lambert (a diffuse closure) and Trowbridge-Reitz with
+    correlated Smith (Cycles' GGX closure, the model): under each setting
+    the exact render equals the path-traced one, black where the lamp does
+    not light that kind (1e-4 relative for Lambert, 1e-3 for the GGX
+    closure, the exact closures' tolerance, float32).  A binding without
+    the variable (as made before this session) is bound again at the
+    viewport's next update."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_rays",
+                                                          "exact")
+    if model != "lambert":
+        mat.node_tree.nodes.remove(node)
+        node = api.add_model(mat, "microfacet", mode="exact", distribution="trowbridge_reitz",
+                             shadowing="smith_correlated")
+    kind = "visible_diffuse" if model == "lambert" else "visible_glossy"
+    rtol = 1e-4 if model == "lambert" else 1e-3
+
+    def check(lit, setting):
+        images = []
+        for mode in ("path_traced", "exact"):
+            api.set_mode(node, mode)
+            images.append(g.render())
+        traced, exact = images
+        assert bool(traced[g.lit].min() > 0) == lit and bool(traced[g.mask].any()) == lit, \
+            setting
+        assert np.allclose(exact, traced, rtol=rtol, atol=0), setting
+
+    try:
+        api.bind_light(node, g.sun)
+        assert linking.ray_visibility(node) == kind
+        check(True, "both on")
+        for attr in ("visible_diffuse", "visible_glossy"):
+            setattr(g.sun, attr, False)
+            check(attr != kind, attr + " off")
+            setattr(g.sun, attr, True)
+        driver = linking._strength_driver(node, 1)
+        driver.variables.remove(driver.variables[linking.RAY])
+        driver.expression = driver.expression.replace(f" * {linking.RAY}", "")
+        assert linking.moved_lamp_lights(node) == [1]
+        g.scene.view_layers[0].update()
+        assert linking.moved_lamp_lights(node) == []
+        setattr(g.sun, kind, False)
+        check(False, kind + " off, bound again")
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [])
+
+
 def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
     """Binding's drivers read the lamp's light datablock (strength, colour,
     cone); a lamp object given another light datablock (the Object Data

@@ -817,8 +817,9 @@ def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
     rig = bpy.data.collections.new("rm moved rig")
     scene.collection.children.link(rig)
     ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
-    message = ("Lamp in other or renamed collections, or with other light data, since binding "
-               "for light 1: bound again at the next update, render or save")
+    message = ("Lamp in other or renamed collections or with other light data since binding, "
+               "or bound by an older version, for light 1: bound again at the next update, "
+               "render or save")
     handlers = bpy.app.handlers.depsgraph_update_post
     handlers.remove(ui.on_depsgraph_update_post)
     try:
@@ -921,6 +922,55 @@ def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):
         assert message not in sidebar_labels(bpy, ctx)
     finally:
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, blockers])
+
+
+def test_sidebar_says_what_of_a_lamps_visibility_exact_mode_does_not_follow(ui, bpy):
+    """Exact mode follows the lamp's Diffuse or Glossy ray visibility, the
+    one for the model's kind (tests/test_lighting.py renders it), but not
+    for Kajiya-Kay, whose diffuse and specular terms share one light, nor
+    EEVEE's Diffuse and Specular light factors (EEVEE scales each kind of
+    closure's light by them, Cycles ignores them, and a driver cannot tell
+    the engine): the sidebar names such lamps, the factors only where the
+    scene renders in EEVEE and only the model's kind's."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm rays")
+    rays = ("Ray visibility not followed (Kajiya-Kay's diffuse and specular terms share one "
+            "light): rm rays sun")
+    factors = "EEVEE's Diffuse and Specular light factors not followed by exact mode: rm rays sun"
+    eevee = "BLENDER_EEVEE_NEXT" if bpy.app.version < (5, 0) else "BLENDER_EEVEE"
+    hair = None
+
+    def said(active):
+        ctx = shader_editor(scene=scene, active_node=active, active_object=None,
+                            selected_objects=[])
+        labels = sidebar_labels(bpy, ctx)
+        return rays in labels, factors in labels
+
+    try:
+        api.bind_light(node, sun)
+        sun.visible_diffuse = False
+        assert said(node) == (False, False)  # followed by Lambert's strength
+        sun.visible_diffuse = True
+        sun.data.specular_factor = 0.5
+        scene.render.engine = eevee
+        assert said(node) == (False, False)  # not Lambert's kind
+        sun.data.diffuse_factor = 0.5
+        assert said(node) == (False, True)
+        scene.render.engine = 'CYCLES'
+        assert said(node) == (False, False)
+        sun.data.diffuse_factor = 1.0
+        hair = api.add_model(mat, "kajiya_kay", mode="exact")
+        api.bind_light(hair, sun)
+        assert said(hair) == (False, False)
+        sun.visible_glossy = False
+        assert said(hair) == (True, False)
+        scene.render.engine = eevee
+        assert said(hair) == (True, True)  # its specular factor
+        api.set_mode(hair, "path_traced")  # Cycles' and EEVEE's own light: nothing to say
+        assert said(hair) == (False, False)
+    finally:
+        if hair is not None:
+            api.unbind_light(hair)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun])
 
 
 def _repair_buttons(bpy, ctx) -> int:
