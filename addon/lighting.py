@@ -548,6 +548,17 @@ def shadow_linked_lamps(node) -> list:
             if lamp.light_linking.blocker_collection is not None]
 
 
+def light_linked_lamps(node) -> list:
+    """The bound lamps with light linking of the user's (a receiver
+    collection the extension did not make): Cycles and EEVEE light only the
+    objects it lets through, where exact mode, one evaluation per material,
+    lights every object with the material.  Named in exact mode (the
+    hybrid mode adds its exclusions to such a collection)."""
+    return [lamp for lamp in bound_lights(node)
+            if lamp.light_linking.receiver_collection is not None
+            and not lamp.light_linking.receiver_collection.get(MADE)]
+
+
 def unfollowed_ray_lamps(node) -> list:
     """The bound lamps of a Kajiya-Kay node with the Diffuse or Glossy ray
     visibility off: its diffuse and specular terms share one light, so its

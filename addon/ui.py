@@ -537,6 +537,10 @@ def _draw_node(layout, context, node):
     if blocked:
         box.label(text="Shadow linking not followed: exact mode's shadow ray sees every object "
                   "for " + ", ".join(o.name for o in blocked), icon='INFO')
+    linked = lighting.light_linked_lamps(node) if mode == "exact" else []
+    if linked:
+        box.label(text="Light linking not followed: exact mode lights every object with the "
+                  "material from " + ", ".join(o.name for o in linked), icon='INFO')
     rays = lighting.unfollowed_ray_lamps(node) if mode != "path_traced" else []
     if rays:
         box.label(text="Ray visibility not followed (Kajiya-Kay's diffuse and specular terms "

@@ -973,6 +973,38 @@ def test_sidebar_says_what_of_a_lamps_visibility_exact_mode_does_not_follow(ui, 
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun])
 
 
+def test_sidebar_says_when_a_bound_lamp_has_light_linking_of_the_users(ui, bpy):
+    """A lamp's light linking (a receiver collection of the user's) limits
+    which objects it lights; exact mode evaluates the lamp once per
+    material and lights every object with it.  The sidebar names such
+    lamps in exact mode; not in path-traced mode (Cycles' own light), nor
+    for the collection the hybrid mode made."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm receivers")
+    receivers = bpy.data.collections.new("rm receivers")
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = ("Light linking not followed: exact mode lights every object with the material "
+               "from rm receivers sun")
+    try:
+        api.set_mode(node, "exact")
+        api.bind_light(node, sun)
+        assert message not in sidebar_labels(bpy, ctx)
+        sun.light_linking.receiver_collection = receivers
+        assert message in sidebar_labels(bpy, ctx)
+        api.set_mode(node, "path_traced")
+        assert message not in sidebar_labels(bpy, ctx)
+        api.set_mode(node, "exact")
+        sun.light_linking.receiver_collection = None
+        other = new_material(bpy, "rm receivers other")
+        hybrid = api.add_model(other, "lambert", mode="hybrid")
+        api.bind_light(hybrid, sun)  # the extension's collection, for the other material
+        assert sun.light_linking.receiver_collection is not None
+        assert message not in sidebar_labels(bpy, ctx)
+        api.unbind_light(hybrid)
+        bpy.data.materials.remove(other)
+    finally:
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, receivers])
+
+
 def _repair_buttons(bpy, ctx) -> int:
     """How many *Repair Light Linking* buttons the sidebar draws in ``ctx``."""
     layout = Recorder()
