@@ -716,10 +716,12 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     object given a hybrid material was lit twice, by the closure and by the
     exact evaluation):
 
-    - after a light or a collection was edited: a bound lamp whose type
-      changed (a sun made a spot lamp), that is now in other or renamed
-      collections (whose Disable in Renders and view-layer exclusion its
-      strength follows) or that has other light data bound again;
+    - after a light or a collection was edited, and at the first update
+      after the extension was enabled, a file opened, an undo or a redo:
+      a bound lamp whose type changed (a sun made a spot lamp), that is
+      now in other or renamed collections (whose Disable in Renders and
+      view-layer exclusion its strength follows), that has other light
+      data, or that an older version bound, bound again;
     - after objects were added or removed (their number changed): a copy
       of a bound lamp, which Blender gives the original's light linking,
       has the extension's collection taken away, and the lights of a
@@ -746,12 +748,13 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     if is_job_running is not None and is_job_running('RENDER'):
         return
     updated = getattr(depsgraph, "id_type_updated", None)
-    if updated is not None and not updated('SCENE') and _slots_seen[0] is not None:
+    first = _slots_seen[0] is None  # since enabling, a file opened, an undo or a redo
+    if updated is not None and not updated('SCENE') and not first:
         # a transform or an edit of existing data: adding or removing an object and changing
         # a slot rebuild the depsgraph's relations, which updates the scene (measured)
         return
-    if updated is None or updated('LIGHT') or updated('COLLECTION'):
-        _logged(*_REBIND_CHANGED)
+    if first or updated is None or updated('LIGHT') or updated('COLLECTION'):
+        _logged(*_REBIND_CHANGED)  # at the first look too: a file's older bindings
     count = len(bpy.data.objects)
     if count != _objects_seen[0]:
         _objects_seen[0] = count

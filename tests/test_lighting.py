@@ -1302,6 +1302,59 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
         lighting.remove_binding(api, node, g.scene, mat, [])
 
 
+def test_a_files_older_bindings_are_bound_again_at_its_first_update(bpy, installed_extension,
+                                                                     tmp_path):
+    """A file saved with a binding of the forty-first session's form (its
+    strength reads neither the view layer's exclusion nor the ray
+    visibility), opened: the viewport's first update (a camera moved)
+    binds it again, with no light or collection edited and no render or
+    save (the save and viewport handlers are out while the file is
+    written, or they would bind it first).  Then the sun's collection
+    excluded renders black."""
+    from verification.harness import session as bpy_env
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_older",
+                                                          "exact")
+    rig = bpy.data.collections.new("rm_ll_older rig")
+    g.scene.collection.children.link(rig)
+    for coll in list(g.sun.users_collection):
+        coll.objects.unlink(g.sun)
+    rig.objects.link(g.sun)
+    api.bind_light(node, g.sun)
+    driver = linking._strength_driver(node, 1)
+    for name in ("v0", linking.RAY):
+        driver.variables.remove(driver.variables[name])
+    driver.expression = driver.expression.replace(" * (1 - v0)", "").replace(
+        f" * {linking.RAY}", "")
+    assert linking.moved_lamp_lights(node) == [1]
+    path, node_name, rig_name = tmp_path / "older.blend", node.name, rig.name
+    saving = bpy.app.handlers.save_pre
+    taken = [h for h in saving if getattr(h, "__name__", "") == "on_save_pre"]
+    try:
+        with _ViewportHandlerOff(bpy):
+            for handler in taken:
+                saving.remove(handler)
+            bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    finally:
+        saving.extend(taken)
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+        mat = bpy.data.materials["rm_ll_older"]
+        node = next(n for n in mat.node_tree.nodes if n.name == node_name)
+        assert linking.moved_lamp_lights(node) == [1]
+        scene = bpy.data.scenes["rm_ll_older"]
+        layer = scene.view_layers[0]
+        layer.update()  # nothing tagged since the file was read: no update runs (measured)
+        scene.camera.location.x += 0.0  # the user's first edit
+        layer.update()
+        assert linking.moved_lamp_lights(node) == []
+        assert linking._ray_read(node, 1) == "visible_diffuse"
+        g.scene = scene  # the gonio's geometry is the file's
+        layer.layer_collection.children[rig_name].exclude = True
+        assert not g.render()[g.mask].any()
+    finally:
+        bpy_env.reset_scene()
+
+
 def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
     """Binding's drivers read the lamp's light datablock (strength, colour,
     cone); a lamp object given another light datablock (the Object Data
