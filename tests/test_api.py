@@ -17,6 +17,7 @@ import pytest
 from addon import catalogue
 from verification import harness as common
 from verification.scenes import gonio
+from verification.scenes.lit import move_to_collection
 from verification.harness import session as bpy_env
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -324,9 +325,7 @@ def test_bound_light_survives_save_and_reload_in_a_fresh_process(api, bpy, tmp_p
     g = gonio.build_gonio_scene(mat, light_dir=LIGHT, resolution=RES, name="fresh")
     rig = bpy.data.collections.new("fresh rig")
     g.scene.collection.children.link(rig)
-    for coll in list(g.sun.users_collection):
-        coll.objects.unlink(g.sun)
-    rig.objects.link(g.sun)
+    move_to_collection(g.sun, rig)
     api.bind_light(node, g.sun)
     end_dir = gonio.normalize((-0.35, -0.3, 0.88))
     sun = g.sun

@@ -33,6 +33,7 @@ import pytest
 from addon import catalogue
 from verification import harness as common
 from verification.scenes import gonio, lit
+from verification.scenes.lit import move_to_collection
 from verification.suites import lighting
 
 RES = 48
@@ -1070,9 +1071,7 @@ def test_exact_mode_follows_the_disable_in_renders_of_the_lamps_collections(
     g.scene.collection.children.link(outer)
     g.scene.collection.children.link(away)
     outer.children.link(inner)
-    for coll in list(g.sun.users_collection):
-        coll.objects.unlink(g.sun)
-    inner.objects.link(g.sun)
+    move_to_collection(g.sun, inner)
     try:
         api.bind_light(node, g.sun)
         assert linking.bound_collections(node, 1) == [inner, outer]
@@ -1118,9 +1117,7 @@ def test_exact_mode_follows_the_view_layers_exclusion_of_the_lamps_collections(
     inner = bpy.data.collections.new("rm_ll_layers inner")
     g.scene.collection.children.link(outer)
     outer.children.link(inner)
-    for coll in list(g.sun.users_collection):
-        coll.objects.unlink(g.sun)
-    inner.objects.link(g.sun)
+    move_to_collection(g.sun, inner)
     first = g.scene.view_layers[0]
     second = g.scene.view_layers.new("rm_ll_layers second")
 
@@ -1316,9 +1313,7 @@ def test_a_files_older_bindings_are_bound_again_at_its_first_update(bpy, install
                                                           "exact")
     rig = bpy.data.collections.new("rm_ll_older rig")
     g.scene.collection.children.link(rig)
-    for coll in list(g.sun.users_collection):
-        coll.objects.unlink(g.sun)
-    rig.objects.link(g.sun)
+    move_to_collection(g.sun, rig)
     api.bind_light(node, g.sun)
     driver = linking._strength_driver(node, 1)
     for name in ("v0", linking.RAY):

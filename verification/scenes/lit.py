@@ -204,6 +204,14 @@ def add_lamp(scene, lamp: Lamp, name):
     return obj
 
 
+def move_to_collection(obj, collection):
+    """``obj`` taken out of every collection it is in and put in
+    ``collection`` (a lamp moved into a collection of the user's)."""
+    for coll in list(obj.users_collection):
+        coll.objects.unlink(obj)
+    collection.objects.link(obj)
+
+
 def build_lit_scene(material, lamps, *, resolution=48, name="lit"):
     """The tiles with ``material`` under ``lamps``; no sky, direct light."""
     plan = plan_lit(lamps, resolution=resolution)
