@@ -1171,9 +1171,9 @@ def test_exact_mode_follows_a_lamp_in_several_collections_as_cycles_renders_it(
     of the switches: the exact render equals the path-traced one, lit or
     black as Cycles has it (1e-4 relative: Lambert's closure is the model,
     float32; both black where the lamp does not render), and each setting
-    is checked to be the one expected (before this session, a lamp in
-    several collections was not followed: lit in exact mode, black path
-    traced, with both collections disabled)."""
+    is checked to be the one expected (before the forty-second session, a
+    lamp in several collections was not followed: lit in exact mode, black
+    path traced, with both collections disabled)."""
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_ways",
                                                           "exact")
     a, b, d = (bpy.data.collections.new("rm_ll_ways " + k) for k in "abd")
@@ -1258,8 +1258,8 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
     the exact render equals the path-traced one, black where the lamp does
     not light that kind (1e-4 relative for Lambert, 1e-3 for the GGX
     closure, the exact closures' tolerance, float32).  A binding without
-    the variable (as made before this session) is bound again at the
-    viewport's next update."""
+    the variable (as made before the forty-second session) is bound again
+    at the viewport's next update."""
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_rays",
                                                           "exact")
     if model != "lambert":

@@ -183,6 +183,9 @@ def run(args):
     # takes it away, and lamps bound together share one collection
     for eevee in (False, True):
         lamp_checks.append(lighting.hybrid_copied_lamp(api, osl=False, eevee=eevee))
+    # what decides whether the engine renders the bound lamp, followed by exact mode
+    for osl, eevee in ((True, False), (False, False), (False, True)):
+        lamp_checks.append(lighting.lamp_switches(api, osl=osl, eevee=eevee))
     for osl in (True, False):
         lamp_checks.append(lighting.hybrid_lit_scene(api, samples=128, resolution=64, osl=osl))
     for c in lamp_checks:

@@ -44,14 +44,17 @@ def _material(name):
     return mat
 
 
-def compare(img, expected, mask, spread=None, *, eevee=False):
+def compare(img, expected, mask, spread=None, *, eevee=False, scale_of=None):
     """``(largest error, largest error beyond the allowance / allowance)``:
     the error relative to max(|expected|, 1e-3 peak), allowed 1e-4 of that
     plus ``spread``; ``eevee``: the error over the peak, allowed 3e-3 of the
-    peak (its half-float output) plus ``spread``."""
-    peak = float(expected[mask].max())
+    peak (its half-float output) plus ``spread``.  ``scale_of``: the image
+    whose values and peak scale the error, where ``expected`` may be black
+    (default: ``expected``)."""
+    of = expected if scale_of is None else scale_of
+    peak = float(of[mask].max())
     tol = tolerance("eevee_exact" if eevee else "exact_mode")
-    scale = peak if eevee else np.maximum(np.abs(expected[mask]), 1e-3 * peak)
+    scale = peak if eevee else np.maximum(np.abs(of[mask]), 1e-3 * peak)
     err = np.abs(img[mask].astype(np.float64) - expected[mask])
     allowed = tol * scale + (0.0 if spread is None else spread[mask])
     return float((err / scale).max()), float((err / allowed).max())
@@ -321,6 +324,84 @@ def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
                  expected=within + " of twice the model (the copy's closure, then its exact "
                  "evaluation)", group="hybrid", tolerance=reason, values=values,
                  seconds=time.perf_counter() - t0)
+
+
+# (setting, whether the engine renders the sun in it): the sun in two sibling collections
+LAMP_SWITCHES = (("as bound", True), ("a disabled in renders", True),
+                 ("a and b disabled in renders", False),
+                 ("a excluded from the view layer, b disabled", False),
+                 ("a excluded from the view layer", True),
+                 ("Glossy ray visibility off", True), ("Diffuse ray visibility off", False))
+
+
+def _switch_lamp(g, a, b, setting):
+    """Put the sun of ``g`` (in collections ``a`` and ``b``) in ``setting``
+    (one of :data:`LAMP_SWITCHES`), the other switches back on."""
+    layer = g.scene.view_layers[0]
+    a.hide_render = "a disabled" in setting or "a and b disabled" in setting
+    b.hide_render = "b disabled" in setting or "a and b disabled" in setting
+    layer.layer_collection.children[a.name].exclude = "a excluded" in setting
+    g.sun.visible_glossy = setting != "Glossy ray visibility off"
+    g.sun.visible_diffuse = setting != "Diffuse ray visibility off"
+
+
+def lamp_switches(api, *, osl: bool, resolution=48, eevee=False):
+    """Exact mode's strength follows what decides whether the engine lights
+    a surface with the bound lamp: the Disable in Renders of the
+    collections it is in and their exclusion from the view layer, over
+    every way down to it (a lamp in two collections renders while either
+    does), and its ray visibility for the model's kind.  Lambert, whose
+    closure is the model, under the sun in two sibling collections, in
+    each setting of :data:`LAMP_SWITCHES`: whether the engine lights the
+    tiles is read from the path-traced render, and must be as expected;
+    the exact render must be the model where it does and black where not
+    (1e-4 relative to the model; EEVEE 3e-3 of its peak, half float)."""
+    t0 = time.perf_counter()
+    bpy = common.import_bpy()
+    backend = _backend(osl, eevee)
+    name = f"lamp_switches_{backend}"
+    mat = _material(name)
+    node = api.add_model(mat, "lambert", mode="exact")
+    g = gonio.build_gonio_scene(mat, light_dir=gonio.normalize((0.35, 0.25, 0.90)),
+                                resolution=resolution, osl=backend == "osl", name=name)
+    _use_backend(g.scene, api, backend)
+    a, b = (bpy.data.collections.new(f"{name} {k}") for k in "ab")
+    for coll in (a, b):
+        g.scene.collection.children.link(coll)
+    lit.move_to_collection(g.sun, a)
+    b.objects.link(g.sun)
+    reference = g.reference("lambert")
+    worst, ratio, wrong = 0.0, 0.0, []
+    try:
+        api.bind_light(node, g.sun)
+        g.scene.view_layers[0].update()  # the layer collections, built lazily
+        renders = {}
+        for mode in ("path_traced", "exact"):  # one shader compilation each in EEVEE
+            api.set_mode(node, mode)
+            for setting, _lights in LAMP_SWITCHES:
+                _switch_lamp(g, a, b, setting)
+                renders[mode, setting] = g.render()
+        for setting, lights in LAMP_SWITCHES:
+            traced, exact = renders["path_traced", setting], renders["exact", setting]
+            engine_lights = bool(traced[g.lit].min() > 0)
+            if engine_lights != lights or (not lights and traced[g.mask].any()):
+                wrong.append(setting)
+            w, r = compare(exact, reference * float(engine_lights), g.mask, eevee=eevee,
+                           scale_of=reference)
+            worst, ratio = max(worst, w), max(ratio, r)
+    finally:
+        remove_binding(api, node, g.scene, mat, [a, b])
+    key, label, within, reason = _measure(eevee)
+    values = {"backend": backend, key: worst, "settings": len(LAMP_SWITCHES),
+              "not_as_expected": wrong, "n_lit": int(g.lit.sum())}
+    return Check(name=f"exact mode follows the lamp's collections, view layer and ray "
+                 f"visibility, {backend}",
+                 passed=ratio <= 1.0 and not wrong,
+                 measured=f"max {label} {worst:.2e} over {len(LAMP_SWITCHES)} settings"
+                 + (f"; the engine not as expected in: {', '.join(wrong)}" if wrong else ""),
+                 expected=within + " of the model where the engine lights the tiles with "
+                 "the sun, black where it does not", group="hybrid", tolerance=reason,
+                 values=values, seconds=time.perf_counter() - t0)
 
 
 def _lit_scene(api, mode, samples, resolution, osl=True):
