@@ -278,6 +278,20 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
                  seconds=time.perf_counter() - t0)
 
 
+def _lambert_gonio(api, name, mode, *, osl, eevee, resolution):
+    """``(backend, material, node, gonio scene)``: a Lambert node in
+    ``mode`` on the gonio's tiles under the sun, set up for the backend
+    (named ``name`` and the backend)."""
+    backend = _backend(osl, eevee)
+    name = f"{name}_{backend}"
+    mat = _material(name)
+    node = api.add_model(mat, "lambert", mode=mode)
+    g = gonio.build_gonio_scene(mat, light_dir=gonio.normalize((0.35, 0.25, 0.90)),
+                                resolution=resolution, osl=backend == "osl", name=name)
+    _use_backend(g.scene, api, backend)
+    return backend, mat, node, g
+
+
 def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
     """A copy of the bound sun (Blender gives it the original's light
     linking), then the node bound to both.  Lambert, whose closure is the
@@ -290,14 +304,8 @@ def hybrid_copied_lamp(api, *, osl: bool, resolution=48, eevee=False):
     (``sync_light_linking``), so that the check does not depend on
     handlers being registered."""
     t0 = time.perf_counter()
-    bpy = common.import_bpy()
-    backend = _backend(osl, eevee)
-    name = f"hybrid_copy_{backend}"
-    mat = _material(name)
-    node = api.add_model(mat, "lambert", mode="hybrid")
-    g = gonio.build_gonio_scene(mat, light_dir=gonio.normalize((0.35, 0.25, 0.90)),
-                                resolution=resolution, osl=backend == "osl", name=name)
-    _use_backend(g.scene, api, backend)
+    backend, mat, node, g = _lambert_gonio(api, "hybrid_copy", "hybrid", osl=osl, eevee=eevee,
+                                           resolution=resolution)
     g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
     expected = 2.0 * g.reference("lambert")
     worst, ratio, collections, copy = 0.0, 0.0, set(), None
@@ -358,14 +366,9 @@ def lamp_switches(api, *, osl: bool, resolution=48, eevee=False):
     (1e-4 relative to the model; EEVEE 3e-3 of its peak, half float)."""
     t0 = time.perf_counter()
     bpy = common.import_bpy()
-    backend = _backend(osl, eevee)
-    name = f"lamp_switches_{backend}"
-    mat = _material(name)
-    node = api.add_model(mat, "lambert", mode="exact")
-    g = gonio.build_gonio_scene(mat, light_dir=gonio.normalize((0.35, 0.25, 0.90)),
-                                resolution=resolution, osl=backend == "osl", name=name)
-    _use_backend(g.scene, api, backend)
-    a, b = (bpy.data.collections.new(f"{name} {k}") for k in "ab")
+    backend, mat, node, g = _lambert_gonio(api, "lamp_switches", "exact", osl=osl, eevee=eevee,
+                                           resolution=resolution)
+    a, b = (bpy.data.collections.new(f"{g.scene.name} {k}") for k in "ab")
     for coll in (a, b):
         g.scene.collection.children.link(coll)
     lit.move_to_collection(g.sun, a)
