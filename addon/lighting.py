@@ -329,6 +329,22 @@ def sized_lamps(lamps) -> list:
             if (obj.data.angle if obj.data.type == 'SUN' else obj.data.shadow_soft_size) > 0]
 
 
+def unevenly_scaled_spots(lamps) -> list:
+    """The names of the spot lamps among ``lamps`` whose world scale is not
+    the same along their three axes: Cycles scales a spot's cone with it
+    (measured, 5.2.4: scale (2, 1, 1) lit 49 gonio pixels where the
+    unscaled spot lit 29, (1, 1, 3) 16; a uniform scale changed nothing),
+    where exact mode takes the cone unscaled, Spot Size about the axis."""
+    out = []
+    for obj in lamps:
+        if obj.data.type != 'SPOT':
+            continue
+        scale = [abs(c) for c in obj.matrix_world.to_scale()]
+        if max(scale) - min(scale) > 1e-6 * max(max(scale), 1e-30):
+            out.append(obj.name)
+    return out
+
+
 def _check_lamps(lamps):
     if not lamps:
         raise ValueError("bind_light needs at least one lamp")

@@ -508,6 +508,10 @@ def _draw_node(layout, context, node):
     if sized and mode != "path_traced":
         box.label(text="Taken as a direction or point, size ignored: " + ", ".join(sized),
                   icon='INFO')
+    scaled = lighting.unevenly_scaled_spots(bound)
+    if scaled and mode != "path_traced":
+        box.label(text="Spot cone taken unscaled (Cycles scales it with the lamp's uneven "
+                  "scale): " + ", ".join(scaled), icon='INFO')
     lamps = _selected_lamps(context)
     row = box.row(align=True)
     if lamps:

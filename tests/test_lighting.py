@@ -1350,6 +1350,45 @@ def test_a_files_older_bindings_are_bound_again_at_its_first_update(bpy, install
         bpy_env.reset_scene()
 
 
+def test_cycles_scales_a_spots_cone_and_exact_mode_does_not(bpy, api):
+    """What the sidebar's label on unevenly scaled spots rests on: Cycles
+    scales a spot lamp's cone with the lamp's scale where it is not the
+    same along its axes (a uniform scale changes nothing), and exact mode
+    takes the cone unscaled.  A spot straight above the gonio, Lambert:
+    path traced, scale (2, 1, 1) lights more pixels than the unscaled spot
+    and (1, 1, 3) fewer, (2, 2, 2) the same render (1e-6 relative,
+    float32); exact mode renders the same for every scale (1e-6)."""
+    mat = _material("rm_ll_scaled_spot")
+    node = api.add_model(mat, "lambert", mode="exact")
+    g = gonio.build_gonio_scene(mat, light_dir=(0.0, 0.0, 1.0), resolution=32, osl=False,
+                                name="rm_ll_scaled_spot")
+    g.sun.data.energy = 0.0
+    spot = lit.add_lamp(g.scene, lit.Lamp("SPOT", position=(0.0, 0.0, 3.0), direction=(0, 0, 1),
+                                           strength=5.0, size=0.6, blend=0.0),
+                        "rm_ll_scaled_spot spot")
+    renders = {}
+    try:
+        api.bind_light(node, spot)
+        for mode in ("path_traced", "exact"):
+            api.set_mode(node, mode)
+            for scale in ((1, 1, 1), (2, 1, 1), (1, 1, 3), (2, 2, 2)):
+                spot.scale = scale
+                renders[mode, scale] = g.render()
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [spot])
+
+    def lit_pixels(img):
+        return int((img[g.mask][:, 1] > 1e-4 * img.max()).sum())
+
+    plain = renders["path_traced", (1, 1, 1)]
+    assert lit_pixels(renders["path_traced", (2, 1, 1)]) > lit_pixels(plain) > \
+        lit_pixels(renders["path_traced", (1, 1, 3)]) > 0
+    assert np.allclose(renders["path_traced", (2, 2, 2)], plain, rtol=1e-6, atol=0)
+    for scale in ((2, 1, 1), (1, 1, 3), (2, 2, 2)):
+        assert np.allclose(renders["exact", scale], renders["exact", (1, 1, 1)], rtol=1e-6,
+                           atol=0), scale
+
+
 def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
     """Binding's drivers read the lamp's light datablock (strength, colour,
     cone); a lamp object given another light datablock (the Object Data

@@ -695,6 +695,41 @@ def test_sidebar_names_hybrid_objects_that_also_use_other_materials_and_sized_la
     api.unbind_light(node)
 
 
+def test_sidebar_names_unevenly_scaled_spot_lamps(ui, bpy):
+    """Cycles scales a spot's cone with the lamp's scale where it is not
+    the same along the three axes (tests/test_lighting.py renders it);
+    exact mode takes the cone unscaled: the sidebar names such spots, by
+    their world scale (a parent's counts), in exact and hybrid mode."""
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm scaled")
+    spot = bpy.data.objects.new("rm scaled spot", bpy.data.lights.new("rm scaled spot", "SPOT"))
+    parent = bpy.data.objects.new("rm scaled parent", None)
+    for obj in (spot, parent):
+        scene.collection.objects.link(obj)
+    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    message = ("Spot cone taken unscaled (Cycles scales it with the lamp's uneven scale): "
+               "rm scaled spot")
+
+    def said():
+        scene.view_layers[0].update()  # the world matrices
+        return message in sidebar_labels(bpy, ctx)
+
+    try:
+        api.bind_light(node, sun, spot)
+        assert not said()
+        spot.scale = (2.0, 1.0, 1.0)
+        assert said()
+        spot.scale = (2.0, 2.0, 2.0)
+        assert not said()
+        spot.scale = (1.0, 1.0, 1.0)
+        spot.parent = parent
+        parent.scale = (1.0, 1.0, 3.0)
+        assert said()
+        api.set_mode(node, "path_traced")  # Cycles' own cone
+        assert not said()
+    finally:
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, spot, parent])
+
+
 def test_sidebar_says_when_a_binding_is_an_earlier_versions(ui, bpy):
     """A node bound before binding drove Shadows from Cast Shadow, or the
     strength from Disable in Renders, keeps the values it had (a user may
