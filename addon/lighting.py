@@ -5,7 +5,7 @@ drivers, and the light linking of the hybrid mode.
 Binding (:func:`bind_lights`): light k of a node (its inputs ``<name>`` for
 k = 1, ``<name>_<k>`` after) follows lamp k through drivers made of simple
 expressions only (no Python auto-run needed): a sun's direction from its
-world rotation, a point or spot lamp's position from its world location, a
+world matrix, a point or spot lamp's position from its world location, a
 spot's axis, size and blend, the strength (none while the lamp object is
 disabled in renders, or while every way down to it from the scene's
 collection has a collection disabled in renders or excluded from the view
@@ -116,13 +116,13 @@ def _transform(obj, channel):
 
 
 # A sun shines along its local -Z, a spot points along it: the lamp's world
-# +Z axis (toward a sun; a spot's axis reversed) is the third column of
-# R = Rz Ry Rx (XYZ Euler).
-LAMP_Z = (
-    "cos(rz) * sin(ry) * cos(rx) + sin(rz) * sin(rx)",
-    "sin(rz) * sin(ry) * cos(rx) - cos(rz) * sin(rx)",
-    "cos(ry) * cos(rx)",
-)
+# +Z axis (toward a sun; a spot's axis reversed) is the third column of its world
+# matrix, component i read as ``matrix_world[2][i]`` (the shader normalises it).  Cycles
+# takes it so, a mirrored lamp's flipped axis included (measured, 5.2.4 and 4.5.15:
+# with a scale of -1 on one axis the Euler angles of the world rotation, which bindings
+# before the forty-second session read, gave the opposite axis).
+LAMP_Z = "matrix_world[2][{}]"
+LAMP_MATRIX = "matrix_world"
 # A sun's strength is the irradiance (W/m^2).  Radiant intensity (W/sr) of a
 # point or spot lamp of power P, measured against a Diffuse BSDF in Cycles
 # (tests/test_api.py): P / (4 pi) with "normalize" on (the default); with it
@@ -290,9 +290,8 @@ def _bind_one(node, k, light_object):
     sock("point_light").default_value = 0.0 if kind == 'SUN' else 1.0
     sock("spot").default_value = 1.0 if kind == 'SPOT' else 0.0
     if kind in ('SUN', 'SPOT'):
-        rot = {v: _transform(light_object, f"ROT_{v[1].upper()}") for v in ("rx", "ry", "rz")}
-        for i, expr in enumerate(LAMP_Z):
-            _drive(sock("light_direction"), i, expr, rot)
+        for i in range(3):
+            _drive(sock("light_direction"), i, "z", {"z": _prop(light_object, LAMP_Z.format(i))})
     if kind in ('POINT', 'SPOT'):
         for i, axis in enumerate("xyz"):
             _drive(sock("light_position"), i, axis,
@@ -634,7 +633,8 @@ def moved_lamp_lights(node, parents=None) -> list:
     renamed since, the last two changing the view layer's paths to them),
     whose binding reads no view layer's exclusion of its collections, or
     none of a lamp in several, or not the lamp's ray visibility
-    (:func:`ray_visibility`; bound in the fortieth or forty-first
+    (:func:`ray_visibility`), or its direction from Euler angles
+    (:func:`_euler_direction`; bound in the fortieth or forty-first
     session), or that has other light data than binding read
     (the Object Data's light replaced: the drivers read the old light's
     strength, colour and cone).  Bindings of the earlier versions are left
@@ -648,7 +648,7 @@ def moved_lamp_lights(node, parents=None) -> list:
         collections, switches, light = _strength_reads(node, k)
         _factor, *expected = collection_factor(collection_paths(lamp, parents))
         if [collections, switches] != expected or light != lamp.data \
-                or _ray_read(node, k) != ray_visibility(node):
+                or _ray_read(node, k) != ray_visibility(node) or _euler_direction(node, k):
             out.append(k)
     return out
 
@@ -673,17 +673,39 @@ def rebind_changed_lamps() -> int:
     return count
 
 
+def _places_lamp(var) -> bool:
+    """Whether the driver variable ``var`` reads where a lamp is: a
+    transform channel, or its world matrix."""
+    return var.type == 'TRANSFORMS' or (
+        var.type == 'SINGLE_PROP' and var.targets[0].data_path.startswith(LAMP_MATRIX))
+
+
 def _lamp_targets(node) -> dict:
-    """Light k -> the objects the transform variables of its drivers read
-    (None where that object was deleted), for each light of ``node``."""
+    """Light k -> the objects the variables of its drivers read the place of
+    (:func:`_places_lamp`; None where that object was deleted), for each
+    light of ``node``."""
     anim = node.id_data.animation_data
     fcurves = list(anim.drivers) if anim else []
     out = {}
     for k in range(1, light_count(node) + 1):
         paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
         out[k] = [var.targets[0].id for fc in fcurves if fc.data_path in paths
-                  for var in fc.driver.variables if var.type == 'TRANSFORMS']
+                  for var in fc.driver.variables if _places_lamp(var)]
     return out
+
+
+def _euler_direction(node, k) -> bool:
+    """Whether light k's direction is driven from the Euler angles of the
+    lamp's world rotation, as bindings before the forty-second session
+    made it (a mirrored lamp's axis comes out reversed)."""
+    anim = node.id_data.animation_data
+    try:
+        path = groups.input_socket(node, socket_name("light_direction", k)) \
+            .path_from_id("default_value")
+    except KeyError:
+        return False
+    return any(var.type == 'TRANSFORMS' for fc in (anim.drivers if anim else ())
+               if fc.data_path == path for var in fc.driver.variables)
 
 
 def _bound_by_light(node) -> list:

@@ -1389,6 +1389,73 @@ def test_cycles_scales_a_spots_cone_and_exact_mode_does_not(bpy, api):
                            atol=0), scale
 
 
+def test_exact_mode_takes_a_mirrored_lamps_direction_as_cycles_does(bpy, installed_extension):
+    """Cycles takes a sun's direction and a spot's axis from the third
+    column of the lamp's world matrix, flipped where the lamp is mirrored
+    (a negative scale on one or three axes, its own or a parent's);
+    binding read the Euler angles of the world rotation, which gave the
+    opposite axis there (measured before: the sun at scale (1, 1, -1) lit
+    other tiles in exact mode than path traced, 1.0 of the peak apart, and
+    at (-1, 1, 1) 0.34).  Lambert: the exact render equals the path-traced
+    one for each scale (1e-4 relative, float32, Lambert's closure being the
+    model, and 1e-4 of the peak at a spot's blended edge; a sun whose
+    column is flipped shines from below and lights few tiles).  A
+    binding with Euler angles, as made before the forty-second session, is
+    bound again at the viewport's next update."""
+    api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_mirror",
+                                                          "exact")
+    spot = lit.add_lamp(g.scene, lit.Lamp("SPOT", position=(0.3, 0.2, 3.0),
+                                           direction=(0.1, 0.0, 1.0), strength=5.0, size=1.2,
+                                           blend=0.2), "rm_ll_mirror spot")
+    rig = bpy.data.objects.new("rm_ll_mirror rig", None)
+    g.scene.collection.objects.link(rig)
+    spot.parent = rig
+    spot.data.energy = 0.0
+
+    def check(setting, lit_tiles):
+        images = []
+        for mode in ("path_traced", "exact"):
+            api.set_mode(node, mode)
+            images.append(g.render())
+        traced, exact = images
+        # lit_tiles: every tile the sun reaches lit; None: some pixel (a spot's cone)
+        assert (bool(traced[g.mask].any()) if lit_tiles is None
+                else bool(traced[g.lit].min() > 0) == lit_tiles), setting
+        # a spot's blended edge has pixels of tiny value, where the float32 cone cosine
+        # decides the relative error: 1e-4 of the peak there (5e-6 measured)
+        edge = 0.0 if lit_tiles is not None else 1e-4 * float(traced.max())
+        assert np.allclose(exact, traced, rtol=1e-4, atol=edge), setting
+
+    try:
+        api.bind_light(node, g.sun, spot)
+        # a flipped third column puts the sun below the tiles: black in both modes (the
+        # Euler angles kept it above: lit in exact mode)
+        for scale, lit_tiles in (((1, 1, -1), False), ((-1, 1, 1), True), ((-1, -1, -1), False),
+                                 ((2, 1, -3), False), ((-1, -1, 1), True)):
+            g.sun.scale = scale
+            check(f"sun {scale}", lit_tiles)
+        g.sun.scale = (1, 1, 1)
+        g.sun.data.energy, spot.data.energy = 0.0, 5.0 * 4.0 * np.pi
+        for scale in ((-1, 1, 1), (1, -1, 1)):
+            rig.scale = scale
+            check(f"spot under a parent {scale}", None)
+        import importlib
+        groups = importlib.import_module(installed_extension + ".groups")
+        driver = linking._strength_driver(node, 1)
+        assert not linking._euler_direction(node, 1)
+        direction = groups.input_socket(node, "light_direction").path_from_id("default_value")
+        fcurve = next(fc for fc in node.id_data.animation_data.drivers
+                      if fc.data_path == direction)
+        old = fcurve.driver.variables.new()
+        old.type = 'TRANSFORMS'
+        old.targets[0].id = g.sun
+        assert driver is not None and linking.moved_lamp_lights(node) == [1]
+        g.scene.view_layers[0].update()
+        assert linking.moved_lamp_lights(node) == [] and not linking._euler_direction(node, 1)
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [spot, rig])
+
+
 def test_a_bound_lamp_given_other_light_data_is_bound_again(bpy, installed_extension):
     """Binding's drivers read the lamp's light datablock (strength, colour,
     cone); a lamp object given another light datablock (the Object Data
