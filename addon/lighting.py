@@ -829,10 +829,13 @@ def _hybrid_bindings() -> list:
     return [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
 
 
-def hybrid_material_pointers() -> set:
-    """The pointers of the materials whose hybrid nodes are bound to a lamp
-    (whose objects the light linking excludes)."""
-    return {mat.as_pointer() for mat, _node, lamps in _hybrid_bindings() if lamps}
+def hybrid_material_ids() -> set:
+    """The session uids of the materials whose hybrid nodes are bound to a
+    lamp (whose objects the light linking excludes).  A session uid is
+    never given to another datablock; a pointer is, once its datablock was
+    freed (which made the viewport's comparisons miss a change now and
+    then)."""
+    return {mat.session_uid for mat, _node, lamps in _hybrid_bindings() if lamps}
 
 
 def _renders_beyond_slots(obj) -> bool:
@@ -844,12 +847,12 @@ def _renders_beyond_slots(obj) -> bool:
 
 
 def slot_materials(obj, graph=None) -> tuple:
-    """The pointers of the materials in ``obj``'s slots (0 for an empty
+    """The session uids of the materials in ``obj``'s slots (0 for an empty
     slot), to compare between the viewport's updates; with the depsgraph
     ``graph``, for an object that instances or has Geometry Nodes
     (:func:`_renders_beyond_slots`), those it renders there too
     (:func:`groups.rendered_materials`), sorted after them."""
-    slots = tuple(slot.material.as_pointer() if slot.material is not None else 0
+    slots = tuple(slot.material.session_uid if slot.material is not None else 0
                   for slot in getattr(obj, "material_slots", ()))
     if graph is None or not _renders_beyond_slots(obj):
         return slots
@@ -859,7 +862,7 @@ def slot_materials(obj, graph=None) -> tuple:
         in_graph = False
     if not in_graph:  # another scene's object: ``evaluated_get`` gave the original
         return slots
-    return slots + tuple(sorted(m.as_pointer() for m in groups.rendered_materials(obj, graph)))
+    return slots + tuple(sorted(m.session_uid for m in groups.rendered_materials(obj, graph)))
 
 
 def _hybrid_lamps() -> set:
@@ -999,6 +1002,13 @@ def _share(need, hybrid) -> int:
     return changes
 
 
+# the session uids of the materials with a bound hybrid node when the light linking was
+# last brought up to date (here, or by the viewport's handler, which compares with it: a
+# binding's own update could leave the handler nothing to see, and a hybrid node deleted
+# next looked like no change)
+SYNCED_HYBRID = [None]
+
+
 def sync_light_linking(*, handler=None) -> int:
     """Make the light linking match the hybrid nodes: every object using a
     hybrid material excluded from each lamp its node is bound to, lamps
@@ -1070,6 +1080,7 @@ def sync_light_linking(*, handler=None) -> int:
             if not coll.objects and not coll.children:
                 bpy.data.collections.remove(coll)
             changes += 1
+    SYNCED_HYBRID[0] = {mat.session_uid for mat, _node, lamps in hybrid if lamps}
     return changes
 
 

@@ -693,11 +693,10 @@ def on_save_pre(*_args):
 
 
 # what :func:`on_depsgraph_update_post` last saw: the number of objects, and
-# object pointer -> its slots' materials (``lighting.slot_materials``); None:
+# object session uid -> its slots' materials (``lighting.slot_materials``); None:
 # not read yet (since the extension was enabled, a file was opened, an undo or a redo)
 _objects_seen = [None]
 _slots_seen = [None]
-_hybrid_seen = [set()]  # the pointers of the materials with a bound hybrid node
 # what a handler catches, so as never to stop a render, a save or an update
 _FAILURES = (AttributeError, RuntimeError, ReferenceError, TypeError)
 # :func:`_logged`'s arguments for the lights whose bound lamp was deleted
@@ -787,10 +786,10 @@ def _exclusions_changed(depsgraph, updated) -> bool:
     graph = depsgraph if isinstance(depsgraph, bpy.types.Depsgraph) else None
     seen = _slots_seen[0]
     if seen is None:
-        _slots_seen[0] = {o.as_pointer(): lighting.slot_materials(o, graph)
+        _slots_seen[0] = {o.session_uid: lighting.slot_materials(o, graph)
                           for o in bpy.data.objects}
-        _hybrid_seen[0] = lighting.hybrid_material_pointers()
-        return bool(_hybrid_seen[0])
+        lighting.SYNCED_HYBRID[0] = lighting.hybrid_material_ids()
+        return bool(lighting.SYNCED_HYBRID[0])
     changed = set()
     for update in getattr(depsgraph, "updates", ()):
         if not (update.is_updated_shading or update.is_updated_geometry):
@@ -798,15 +797,15 @@ def _exclusions_changed(depsgraph, updated) -> bool:
         obj = update.id.original
         if not isinstance(obj, bpy.types.Object):
             continue
-        now, before = lighting.slot_materials(obj, graph), seen.get(obj.as_pointer(), ())
+        now, before = lighting.slot_materials(obj, graph), seen.get(obj.session_uid, ())
         if now != before:
-            seen[obj.as_pointer()] = now
+            seen[obj.session_uid] = now
             changed |= set(now) ^ set(before)
     if not changed and updated is not None and not (updated('MATERIAL')
                                                     or updated('NODETREE')):
         return False
-    before, now = _hybrid_seen[0], lighting.hybrid_material_pointers()
-    _hybrid_seen[0] = now
+    before, now = lighting.SYNCED_HYBRID[0] or set(), lighting.hybrid_material_ids()
+    lighting.SYNCED_HYBRID[0] = now
     return now != before or bool(changed & (now | before))
 
 
