@@ -504,16 +504,21 @@ def unrendered_lamps(node, layer) -> list:
     return out
 
 
-def _strength_driver(node, k):
-    """The driver of light k's strength, or None."""
+def _socket_driver(node, name, k):
+    """The driver of light k's input ``name`` (of its first component), or
+    None."""
     anim = node.id_data.animation_data
     try:
-        path = groups.input_socket(node, socket_name("light_strength", k)) \
-            .path_from_id("default_value")
+        path = groups.input_socket(node, socket_name(name, k)).path_from_id("default_value")
     except KeyError:
         return None
     return next((fc.driver for fc in (anim.drivers if anim else ()) if fc.data_path == path),
                 None)
+
+
+def _strength_driver(node, k):
+    """The driver of light k's strength, or None."""
+    return _socket_driver(node, "light_strength", k)
 
 
 def _strength_reads(node, k):
@@ -698,14 +703,8 @@ def _euler_direction(node, k) -> bool:
     """Whether light k's direction is driven from the Euler angles of the
     lamp's world rotation, as bindings before the forty-second session
     made it (a mirrored lamp's axis comes out reversed)."""
-    anim = node.id_data.animation_data
-    try:
-        path = groups.input_socket(node, socket_name("light_direction", k)) \
-            .path_from_id("default_value")
-    except KeyError:
-        return False
-    return any(var.type == 'TRANSFORMS' for fc in (anim.drivers if anim else ())
-               if fc.data_path == path for var in fc.driver.variables)
+    driver = _socket_driver(node, "light_direction", k)
+    return driver is not None and any(var.type == 'TRANSFORMS' for var in driver.variables)
 
 
 def _bound_by_light(node) -> list:

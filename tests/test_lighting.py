@@ -573,6 +573,16 @@ def _installed_lambert_gonio(installed_extension, name, mode):
     return api, linking, mat, node, g
 
 
+def _traced_and_exact(api, node, g):
+    """``(path traced, exact)``: renders of the gonio ``g`` with ``node`` in
+    each mode (it is left in exact mode)."""
+    images = []
+    for mode in ("path_traced", "exact"):
+        api.set_mode(node, mode)
+        images.append(g.render())
+    return tuple(images)
+
+
 class _ViewportHandlerOff:
     """The installed extension's viewport handler (``on_depsgraph_update_post``,
     if it is registered) taken out for a ``with`` block, so that a test sees
@@ -1193,11 +1203,7 @@ def test_exact_mode_follows_a_lamp_in_several_collections_as_cycles_renders_it(
     def check(lit, setting):
         layer.update()  # the viewport's handler binds a moved lamp again
         assert linking.moved_lamp_lights(node) == [], setting
-        images = []
-        for mode in ("path_traced", "exact"):
-            api.set_mode(node, mode)
-            images.append(g.render())
-        traced, exact = images
+        traced, exact = _traced_and_exact(api, node, g)
         assert bool(traced[g.mask].any()) == lit, setting
         assert np.allclose(exact, traced, rtol=1e-4, atol=0), setting
 
@@ -1270,11 +1276,7 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
     rtol = 1e-4 if model == "lambert" else 1e-3
 
     def check(lit, setting):
-        images = []
-        for mode in ("path_traced", "exact"):
-            api.set_mode(node, mode)
-            images.append(g.render())
-        traced, exact = images
+        traced, exact = _traced_and_exact(api, node, g)
         assert bool(traced[g.lit].min() > 0) == lit and bool(traced[g.mask].any()) == lit, \
             setting
         assert np.allclose(exact, traced, rtol=rtol, atol=0), setting
@@ -1413,11 +1415,7 @@ def test_exact_mode_takes_a_mirrored_lamps_direction_as_cycles_does(bpy, install
     spot.data.energy = 0.0
 
     def check(setting, lit_tiles):
-        images = []
-        for mode in ("path_traced", "exact"):
-            api.set_mode(node, mode)
-            images.append(g.render())
-        traced, exact = images
+        traced, exact = _traced_and_exact(api, node, g)
         # lit_tiles: every tile the sun reaches lit; None: some pixel (a spot's cone)
         assert (bool(traced[g.mask].any()) if lit_tiles is None
                 else bool(traced[g.lit].min() > 0) == lit_tiles), setting
