@@ -139,22 +139,30 @@ COLLECTION_VAR = re.compile(r"c\d+")
 # v0, v1, ...: whether the view layer being evaluated excludes those collections (a
 # context property, so each view layer's render and the viewport read their own)
 LAYER_VAR = re.compile(r"v\d+")
-# ray: the lamp object's ray visibility for the kind of surface the model is in
+# ray, ray1: the lamp object's ray visibility for the kinds of surface the model is in
 # Cycles' and EEVEE's terms (measured in 5.2.4 and 4.5.15, both engines: a lamp
 # with Diffuse off lights no diffuse closure, with Glossy off no glossy one)
 RAY = "ray"
-RAY_VISIBILITY = {"lambert": "visible_diffuse", "phong": "visible_glossy",
-                  "blinn_phong": "visible_glossy", "microfacet": "visible_glossy",
-                  "ward": "visible_glossy"}  # Kajiya-Kay is both: not followed
+DIFFUSE, GLOSSY = "visible_diffuse", "visible_glossy"
+RAY_VISIBILITY = {"lambert": (DIFFUSE,), "phong": (GLOSSY,), "blinn_phong": (GLOSSY,),
+                  "microfacet": (GLOSSY,), "ward": (GLOSSY,),
+                  # diffuse and specular terms sharing one light: lit while either is
+                  "kajiya_kay": (DIFFUSE, GLOSSY)}
 
 
-def ray_visibility(node) -> str | None:
-    """The lamp object's property (``visible_diffuse``, ``visible_glossy``)
-    that decides whether a lamp lights ``node``'s model in path tracing,
-    which its strength driver follows; None for Kajiya-Kay, whose diffuse
-    and specular terms share one light."""
+def ray_visibility(node) -> tuple:
+    """The lamp object's properties (``visible_diffuse``,
+    ``visible_glossy``) that decide whether a lamp lights ``node``'s model
+    in path tracing, which its strength driver follows: one for a model of
+    one kind, both for Kajiya-Kay, whose diffuse and specular terms share
+    one light (lit while either is on); ``()`` for another node."""
     info = groups.rm_info(getattr(node, "node_tree", None))
-    return RAY_VISIBILITY.get(info[0]) if info else None
+    return RAY_VISIBILITY.get(info[0], ()) if info else ()
+
+
+def _ray_names(count) -> list:
+    """The names of the strength driver's ray visibility variables."""
+    return [RAY if i == 0 else f"{RAY}{i}" for i in range(count)]
 
 
 def _collection_parents() -> dict:
@@ -301,16 +309,17 @@ def _bind_one(node, k, light_object):
         _drive(sock("spot_blend"), -1, "b", {"b": _prop(light, "spot_blend")})
     strength = {"e": _prop(light, "energy"), "x": _prop(light, "exposure"),
                 HIDDEN: _prop(light_object, "hide_render")}
-    ray = ray_visibility(node)
-    if ray is not None:
-        strength[RAY] = _prop(light_object, ray)
+    rays = ray_visibility(node)
+    strength.update({name: _prop(light_object, prop)
+                     for name, prop in zip(_ray_names(len(rays)), rays)})
     if kind != 'SUN':
         strength.update(n=_prop(light, "normalize"), r=_prop(light, "shadow_soft_size"))
     factor, collections, switches = collection_factor(collection_paths(light_object))
     strength.update({f"c{i}": _prop(coll, "hide_render") for i, coll in enumerate(collections)})
     strength.update({f"v{j}": _layer_prop(path) for j, path in enumerate(switches)})
     _drive(sock("light_strength"), -1, (SUN_STRENGTH if kind == 'SUN' else POINT_STRENGTH)
-           + (f" * {RAY}" if ray is not None else "") + factor, strength)
+           + ("" if not rays else f" * {RAY}" if len(rays) == 1
+              else f" * max({', '.join(_ray_names(len(rays)))})") + factor, strength)
     # the lamp's Cast Shadow (Cycles honours it: measured in 5.2 and 4.5)
     _drive(sock("shadows"), -1, "s", {"s": _prop(light, "use_shadow")})
     for i in range(3):
@@ -543,12 +552,17 @@ def _strength_reads(node, k):
             energy.targets[0].id if energy is not None else None)
 
 
-def _ray_read(node, k) -> str | None:
-    """The lamp object's ray visibility property light k's strength driver
-    reads, or None."""
+def _ray_read(node, k) -> tuple:
+    """The lamp object's ray visibility properties light k's strength
+    driver reads (as :func:`ray_visibility` gives them)."""
     driver = _strength_driver(node, k)
-    var = driver.variables.get(RAY) if driver is not None else None
-    return var.targets[0].data_path if var is not None else None
+    out = []
+    for name in _ray_names(2):
+        var = driver.variables.get(name) if driver is not None else None
+        if var is None:
+            break
+        out.append(var.targets[0].data_path)
+    return tuple(out)
 
 
 def bound_collections(node, k) -> list | None:
@@ -580,13 +594,13 @@ def light_linked_lamps(node) -> list:
 
 
 def unfollowed_ray_lamps(node) -> list:
-    """The bound lamps of a Kajiya-Kay node with the Diffuse or Glossy ray
-    visibility off: its diffuse and specular terms share one light, so its
-    strength follows neither (the path-traced output loses that part)."""
+    """The bound lamps of a Kajiya-Kay node with one of the Diffuse and
+    Glossy ray visibilities off: its diffuse and specular terms share one
+    light, lit while either is on (the path-traced output loses that
+    part); with both off it lights nothing, as in path tracing."""
     if not is_kajiya_kay(node):
         return []
-    return [lamp for lamp in bound_lights(node)
-            if not (lamp.visible_diffuse and lamp.visible_glossy)]
+    return [lamp for lamp in bound_lights(node) if lamp.visible_diffuse != lamp.visible_glossy]
 
 
 def is_kajiya_kay(node) -> bool:
@@ -605,9 +619,8 @@ def eevee_factor_lamps(node, scene) -> list:
     mode does not follow them, a driver having no way to know the engine."""
     if getattr(getattr(scene, "render", None), "engine", "") not in EEVEE_ENGINES:
         return []
-    ray = ray_visibility(node)
-    names = {"visible_diffuse": ("diffuse_factor",), "visible_glossy": ("specular_factor",),
-             None: ("diffuse_factor", "specular_factor")}[ray]
+    factor = {DIFFUSE: "diffuse_factor", GLOSSY: "specular_factor"}
+    names = [factor[prop] for prop in ray_visibility(node)]
     return [lamp for lamp in bound_lights(node)
             if any(getattr(lamp.data, name, 1.0) != 1.0 for name in names)]
 

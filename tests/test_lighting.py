@@ -1283,7 +1283,7 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
 
     try:
         api.bind_light(node, g.sun)
-        assert linking.ray_visibility(node) == kind
+        assert linking.ray_visibility(node) == (kind,)
         check(True, "both on")
         for attr in ("visible_diffuse", "visible_glossy"):
             setattr(g.sun, attr, False)
@@ -1297,6 +1297,39 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
         assert linking.moved_lamp_lights(node) == []
         setattr(g.sun, kind, False)
         check(False, kind + " off, bound again")
+    finally:
+        lighting.remove_binding(api, node, g.scene, mat, [])
+
+
+def test_kajiya_kay_is_lit_while_either_ray_visibility_is_on(bpy, installed_extension):
+    """Kajiya-Kay's diffuse and specular terms share one light, so its
+    strength follows the lamp's Diffuse and Glossy ray visibility together:
+    lit while either is on (the sidebar names a lamp with one off), black
+    with both off, as its path-traced closures (a diffuse and a hair one)
+    are then (measured).  Exact renders: one visibility off equals both on
+    (the same drivers' value, float32, 1e-6 relative), both off black,
+    path traced black too."""
+    import importlib
+    api = importlib.import_module(installed_extension + ".api")
+    linking = importlib.import_module(installed_extension + ".lighting")
+    mat = _material("rm_ll_hair_rays")
+    node = api.add_model(mat, "kajiya_kay", mode="exact")
+    g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=False,
+                                name="rm_ll_hair_rays")
+    try:
+        api.bind_light(node, g.sun)
+        assert linking.ray_visibility(node) == ("visible_diffuse", "visible_glossy")
+        lit = g.render()
+        assert lit[g.lit].min() > 0
+        for attr in ("visible_diffuse", "visible_glossy"):
+            setattr(g.sun, attr, False)
+            assert np.allclose(g.render(), lit, rtol=1e-6, atol=0), attr
+            assert linking.unfollowed_ray_lamps(node) == [g.sun]
+            setattr(g.sun, attr, True)
+        g.sun.visible_diffuse = g.sun.visible_glossy = False
+        assert linking.unfollowed_ray_lamps(node) == []
+        traced, exact = _traced_and_exact(api, node, g)
+        assert not traced[g.mask].any() and not exact[g.mask].any()
     finally:
         lighting.remove_binding(api, node, g.scene, mat, [])
 
@@ -1344,7 +1377,7 @@ def test_a_files_older_bindings_are_bound_again_at_its_first_update(bpy, install
         scene.camera.location.x += 0.0  # the user's first edit
         layer.update()
         assert linking.moved_lamp_lights(node) == []
-        assert linking._ray_read(node, 1) == "visible_diffuse"
+        assert linking._ray_read(node, 1) == ("visible_diffuse",)
         g.scene = scene  # the gonio's geometry is the file's
         layer.layer_collection.children[rig_name].exclude = True
         assert not g.render()[g.mask].any()

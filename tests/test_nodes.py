@@ -962,7 +962,8 @@ def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):
 def test_sidebar_says_what_of_a_lamps_visibility_exact_mode_does_not_follow(ui, bpy):
     """Exact mode follows the lamp's Diffuse or Glossy ray visibility, the
     one for the model's kind (tests/test_lighting.py renders it), but not
-    for Kajiya-Kay, whose diffuse and specular terms share one light, nor
+    one of them alone for Kajiya-Kay, whose diffuse and specular terms
+    share one light (lit while either is on, black with both off), nor
     EEVEE's Diffuse and Specular light factors (EEVEE scales each kind of
     closure's light by them, Cycles ignores them, and a driver cannot tell
     the engine): the sidebar names such lamps, the factors only where the
@@ -998,6 +999,9 @@ def test_sidebar_says_what_of_a_lamps_visibility_exact_mode_does_not_follow(ui, 
         assert said(hair) == (False, False)
         sun.visible_glossy = False
         assert said(hair) == (True, False)
+        sun.visible_diffuse = False  # both off: followed, no light
+        assert said(hair) == (False, False)
+        sun.visible_diffuse = True
         scene.render.engine = eevee
         assert said(hair) == (True, True)  # its specular factor
         api.set_mode(hair, "path_traced")  # Cycles' and EEVEE's own light: nothing to say
