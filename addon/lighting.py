@@ -598,14 +598,9 @@ def unfollowed_ray_lamps(node) -> list:
     Glossy ray visibilities off: its diffuse and specular terms share one
     light, lit while either is on (the path-traced output loses that
     part); with both off it lights nothing, as in path tracing."""
-    if not is_kajiya_kay(node):
+    if len(ray_visibility(node)) < 2:  # a model of one kind follows its visibility
         return []
     return [lamp for lamp in bound_lights(node) if lamp.visible_diffuse != lamp.visible_glossy]
-
-
-def is_kajiya_kay(node) -> bool:
-    info = groups.rm_info(getattr(node, "node_tree", None))
-    return info is not None and info[0] == "kajiya_kay"
 
 
 EEVEE_ENGINES = ("BLENDER_EEVEE", "BLENDER_EEVEE_NEXT")
@@ -675,10 +670,10 @@ def rebind_changed_lamps() -> int:
     """Bind again, light by light, each bound lamp whose type changed since
     binding to another type exact mode follows (:func:`retyped_lamps`: a
     sun turned into a spot lamp, say), and each whose collections or light
-    data changed (:func:`moved_lamp_lights`): its drivers made as binding
-    it now would make them.  An area lamp is left as it is (exact mode
-    follows none; the sidebar names it).  In every material's RM nodes but
-    linked ones.  Returns how many lights."""
+    data changed, or that an older version bound (:func:`moved_lamp_lights`):
+    its drivers made as binding it now would make them.  An area lamp is
+    left as it is (exact mode follows none; the sidebar names it).  In
+    every material's RM nodes but linked ones.  Returns how many lights."""
     count, parents = 0, _collection_parents()
     for node in _local_rm_nodes():
         retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)}
@@ -847,7 +842,13 @@ def hybrid_material_ids() -> set:
     never given to another datablock; a pointer is, once its datablock was
     freed (which made the viewport's comparisons miss a change now and
     then)."""
-    return {mat.session_uid for mat, _node, lamps in _hybrid_bindings() if lamps}
+    return _bound_material_ids(_hybrid_bindings())
+
+
+def _bound_material_ids(hybrid) -> set:
+    """The session uids of the materials of ``hybrid`` (:func:`_hybrid_bindings`)
+    whose nodes are bound to a lamp."""
+    return {mat.session_uid for mat, _node, lamps in hybrid if lamps}
 
 
 def _renders_beyond_slots(obj) -> bool:
@@ -1092,7 +1093,7 @@ def sync_light_linking(*, handler=None) -> int:
             if not coll.objects and not coll.children:
                 bpy.data.collections.remove(coll)
             changes += 1
-    SYNCED_HYBRID[0] = {mat.session_uid for mat, _node, lamps in hybrid if lamps}
+    SYNCED_HYBRID[0] = _bound_material_ids(hybrid)
     return changes
 
 

@@ -734,10 +734,9 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
       object that instances or has Geometry Nodes, the materials it
       renders), when the materials with one changed (a hybrid node
       deleted, a material removed), and at the first update after the
-      extension was enabled,
-      a file opened, an undo or a redo: the hybrid exclusions brought up
-      to date, reading the depsgraphs Blender keeps (nothing evaluated)
-      and linking and unlinking objects only.
+      extension was enabled, a file opened, an undo or a redo: the hybrid
+      exclusions brought up to date, reading the depsgraphs Blender keeps
+      (nothing evaluated) and linking and unlinking objects only.
 
     An update that does not update the scene (moving objects) costs one
     question to the depsgraph; one that does, a count of the objects and
