@@ -11,7 +11,8 @@
   of the peak (half-float output) plus the same spread.
 - **Random lamp rigs** (seeded, held out from the rest): one to four lamps
   of every type, setting, parenting and collection switch at once; exact
-  mode against the sum of Cycles' path-traced renders one lamp at a time.
+  mode, and the hybrid mode with some of them bound, against the sum of
+  Cycles' path-traced renders one lamp at a time.
 - **Hybrid, a bound lamp alone**: every model in hybrid mode bound to the
   gonio's sun renders the model exactly (the closure gets none of the
   excluded sun's light), in OSL, in native nodes and in EEVEE.
@@ -192,65 +193,86 @@ def _random_lamp(bpy, scene, rng, name, ray):
     return lamp, made, renders
 
 
-@pytest.mark.parametrize("osl,model,seed,cases", [(False, "lambert", 11, 8),
-                                                  (True, "microfacet", 13, 5)],
-                         ids=["native-lambert", "osl-tr"])
-def test_exact_mode_is_path_tracing_under_random_lamp_rigs(api, bpy, osl, model, seed, cases):
+def _one_lamp_at_a_time(g, lamps):
+    """The sum of renders of ``g`` with one of ``lamps`` lit at a time (the
+    others at energy 0, then put back): Cycles picks one light per sample,
+    so at 1 spp several lamps together are noisy; one lamp of radius 0
+    alone is not.  Also each render."""
+    energies = [lamp.data.energy for lamp in lamps]
+    images = []
+    try:
+        for lamp in lamps:
+            for other, energy in zip(lamps, energies):
+                other.data.energy = energy if other is lamp else 0.0
+            images.append(g.render())
+    finally:
+        for lamp, energy in zip(lamps, energies):
+            lamp.data.energy = energy
+    return sum(images[1:], images[0]), images
+
+
+@pytest.mark.parametrize("osl,model,mode,seed,cases", [
+    (False, "lambert", "exact", 11, 8), (True, "microfacet", "exact", 13, 5),
+    (False, "microfacet", "hybrid", 41, 6)], ids=["native-lambert", "osl-tr", "hybrid-native-tr"])
+def test_exact_mode_is_path_tracing_under_random_lamp_rigs(api, bpy, osl, model, mode, seed,
+                                                           cases):
     """Held-out lamp rigs (seeded, :func:`_random_lamp`, one to four lamps
     a case): what exact mode follows of the lamps together, every switch,
     transform and light setting at once, against Cycles' own path tracing.
     The exact render, all the lamps bound, equals the sum of path-traced
-    renders with one lamp lit at a time (Cycles picks one light per sample,
-    so at 1 spp several lamps together are noisy; one lamp of radius 0
-    alone is not).  Lambert: 1e-4 relative (float32, Lambert's closure
-    being the model); Trowbridge-Reitz with correlated Smith: 1e-3
-    relative (Cycles' GGX closure against the formula, float32, as the
-    closures' checks); both with 1e-4 of the peak at a spot's blended
-    edge, where a pixel's value is tiny and the float32 cone cosine
-    decides it.  A lamp the switches say Cycles does not render leaves its
-    path-traced render black."""
+    renders with one lamp lit at a time (:func:`_one_lamp_at_a_time`).  In
+    hybrid mode some of the lamps are bound (at random, at least one), and
+    the hybrid render one lamp at a time sums to the same: each bound lamp
+    exact, its light linking keeping the closure from it wherever the lamp
+    is, the others path traced (the tiles hidden from diffuse and glossy
+    rays: a neighbour's Direct output is an emission).  Lambert: 1e-4
+    relative (float32, Lambert's closure being the model); Trowbridge-Reitz
+    with correlated Smith: 1e-3 relative (Cycles' GGX closure against the
+    formula, float32, as the closures' checks); both with 1e-4 of the peak
+    at a spot's blended edge, where a pixel's value is tiny and the float32
+    cone cosine decides it.  A lamp the switches say Cycles does not render
+    leaves its path-traced render black."""
     params = {} if model == "lambert" else TR
     ray = "visible_diffuse" if model == "lambert" else "visible_glossy"
-    mat = _material(f"rm_rigs_{model}")
-    node = api.add_model(mat, model, mode="exact", **params)
+    mat = _material(f"rm_rigs_{model}_{mode}")
+    node = api.add_model(mat, model, mode=mode, **params)
     g = gonio.build_gonio_scene(mat, light_dir=(0.35, 0.25, 0.9), resolution=32, osl=osl,
-                                name=f"rm_rigs_{model}")
+                                name=f"rm_rigs_{model}_{mode}")
     g.sun.data.energy = 0.0
+    g.tiles_object.visible_diffuse = g.tiles_object.visible_glossy = False
     rng = np.random.default_rng(seed)
-    made, seen = [], {"several": 0, "unrendered": 0, "lit": 0}
+    made, seen = [], {"several": 0, "unrendered": 0, "lit": 0, "unbound": 0}
     try:
         for case in range(cases):
             rigs = [_random_lamp(bpy, g.scene, rng, f"rm_rig{case}.{j}", ray)
                     for j in range(int(rng.integers(1, 5)))]
             lamps = [lamp for lamp, _made, _renders in rigs]
             made = [data for _lamp, data, _renders in rigs for data in data]
+            some = sorted(rng.permutation(len(lamps))[:rng.integers(1, len(lamps) + 1)])
+            bound = lamps if mode == "exact" else [lamps[i] for i in some]
             g.scene.view_layers[0].update()
-            api.bind_light(node, *lamps)
-            api.set_mode(node, "exact")
-            exact = g.render()
+            api.bind_light(node, *bound)
+            api.set_mode(node, mode)
+            rendered = g.render() if mode == "exact" else _one_lamp_at_a_time(g, lamps)[0]
             api.set_mode(node, "path_traced")
-            energies = [lamp.data.energy for lamp in lamps]
-            traced = np.zeros_like(exact)
-            for j, (lamp, _data, renders) in enumerate(rigs):
-                for other, energy in zip(lamps, energies):
-                    other.data.energy = energy if other is lamp else 0.0
-                one = g.render()
+            traced, singles = _one_lamp_at_a_time(g, lamps)
+            for j, (one, (_lamp, _data, renders)) in enumerate(zip(singles, rigs)):
                 assert renders or not one[g.mask].any(), f"case {case}: lamp {j} rendered"
                 seen["unrendered"] += not renders
-                traced += one
-            for lamp, energy in zip(lamps, energies):
-                lamp.data.energy = energy
             seen["several"] += len(lamps) > 1
             seen["lit"] += bool(traced[g.mask].any())
+            seen["unbound"] += len(lamps) - len(bound)
             peak = float(traced[g.mask].max())
             rtol = 1e-4 if model == "lambert" else 1e-3
-            assert np.allclose(exact[g.mask], traced[g.mask], rtol=rtol, atol=1e-4 * peak), \
-                f"case {case}: {np.abs(exact - traced)[g.mask].max() / max(peak, 1e-30):.2e}"
+            assert np.allclose(rendered[g.mask], traced[g.mask], rtol=rtol, atol=1e-4 * peak), \
+                f"case {case}: {np.abs(rendered - traced)[g.mask].max() / max(peak, 1e-30):.2e}"
             api.unbind_light(node)
             bpy.data.batch_remove(made)  # the case's lamps light no later case
             made = []
-        # the draw reached what it is for: several lamps, switched-off ones, lit tiles
-        assert seen["several"] >= 2 and seen["unrendered"] >= 1 and seen["lit"] >= cases // 2, seen
+        # the draw reached what it is for: several lamps, switched-off ones, lit tiles, and
+        # in hybrid mode lamps left unbound
+        assert seen["several"] >= 2 and seen["unrendered"] >= 1 and seen["lit"] >= cases // 2 \
+            and (mode == "exact" or seen["unbound"] >= 2), seen
     finally:
         lighting.remove_binding(api, node, g.scene, mat, made)
 
