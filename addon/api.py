@@ -333,11 +333,22 @@ def ensure_groups() -> dict:
 # ---------------------------------------------------------------------------
 # The scene
 
+def _scene(scene, caller):
+    """``scene``, or the context scene for None; anything else than a scene
+    raises ``ValueError``."""
+    if scene is None:
+        return bpy.context.scene
+    if not isinstance(scene, bpy.types.Scene):
+        raise ValueError(f"{caller} takes a scene (bpy.types.Scene) or None (the context "
+                         f"scene), not {type(scene).__name__}")
+    return scene
+
+
 def osl_status(scene=None) -> tuple:
     """``(problems, warnings)``: why ``scene`` (default: the context scene)
     cannot run the OSL shaders (empty when it can), and caveats (OptiX: no
     shadow rays)."""
-    scene = scene or bpy.context.scene
+    scene = _scene(scene, "osl_status")
     problems, warnings = [], []
     engine = scene.render.engine
     if engine != 'CYCLES':
@@ -362,7 +373,7 @@ def rendering_backend(scene=None) -> tuple:
     (Cycles on the CPU, or OptiX, with Open Shading Language on),
     ``"native"`` (every other Cycles set-up and EEVEE), or ``"none"`` (an
     engine that draws no materials, e.g. Workbench)."""
-    scene = scene or bpy.context.scene
+    scene = _scene(scene, "rendering_backend")
     engine = scene.render.engine
     if engine != 'CYCLES':
         if engine.startswith('BLENDER_EEVEE'):
@@ -382,7 +393,7 @@ def _compute_device_type():
 def enable_osl(scene=None):
     """Make ``scene`` (default: the context scene) able to run the shaders:
     Cycles, CPU device, Open Shading Language on.  Returns the scene."""
-    scene = scene or bpy.context.scene
+    scene = _scene(scene, "enable_osl")
     scene.render.engine = 'CYCLES'
     scene.cycles.device = 'CPU'
     scene.cycles.shading_system = True
@@ -432,12 +443,13 @@ def unbind_light(node) -> None:
 
 def bound_lights(node) -> list:
     """The lamp objects the lights of ``node`` follow, in order."""
+    _rm_node_info(node)
     return lighting.bound_lights(node)
 
 
 def bound_light(node):
     """The first lamp :func:`bind_light` bound ``node`` to, or None."""
-    lamps = lighting.bound_lights(node)
+    lamps = bound_lights(node)
     return lamps[0] if lamps else None
 
 

@@ -174,6 +174,11 @@ def test_add_model_needs_a_material(api, bpy):
 def test_the_scene_functions_default_to_the_context_scene(api, bpy):
     assert api.rendering_backend() == api.rendering_backend(bpy.context.scene)
     assert api.osl_status() == api.osl_status(bpy.context.scene)
+    # anything else than a scene: a ValueError saying what they take (was an AttributeError)
+    for call in (api.rendering_backend, api.osl_status, api.enable_osl):
+        for wrong in ("Scene", new_material(bpy)):
+            with pytest.raises(ValueError, match="takes a scene"):
+                call(wrong)
 
 
 def test_set_params_changes_values_and_variant(api, bpy):
@@ -309,6 +314,10 @@ def test_bind_light_rejects_other_lamps_and_nodes(api, bpy):
     sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
     with pytest.raises(ValueError, match="not a Reflection Models node"):
         api.bind_light(other, sun)
+    for call in (api.bound_lights, api.bound_light, api.unbind_light, api.light_drivers):
+        for wrong in (other, "node", None):
+            with pytest.raises(ValueError, match="not a Reflection Models node"):
+                call(wrong)
     assert api.light_drivers(node) == []
 
 
