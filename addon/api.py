@@ -437,7 +437,9 @@ def bind_light(node, *lamps) -> None:
 def unbind_light(node) -> None:
     """Remove what :func:`bind_light` added: the drivers on the Light
     inputs, the extra lights, and the light linking of hybrid mode (not
-    what a user linked by hand)."""
+    what a user linked by hand).  The first light's inputs keep the values
+    the lamp gave them last (as a removed driver leaves its property): a
+    still copy of the lamp, which exact mode goes on rendering."""
     lighting.unbind_lights(node)
 
 

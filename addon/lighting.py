@@ -387,7 +387,8 @@ def bind_lights(node, *lamps) -> None:
 
 def unbind_lights(node) -> None:
     """Remove the drivers binding put on the Light inputs, go back to one
-    light, and remove the light linking binding added (nothing else)."""
+    light, and remove the light linking binding added (nothing else): the
+    first light's inputs keep the lamp's last values."""
     _check_node(node)
     for k in range(1, light_count(node) + 1):
         _remove_drivers(node, k)
