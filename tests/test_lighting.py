@@ -1101,6 +1101,14 @@ def test_after_undo_the_viewport_checks_the_copied_lamps_again(bpy, installed_ex
         lighting.remove_binding(api, node, bpy.data.scenes["rm_vp_undo"], mat, made)
 
 
+def _excluded(lamp, target):
+    """Whether ``target`` is in ``lamp``'s receiver collection, excluded."""
+    coll = lamp.light_linking.receiver_collection
+    return coll is not None and any(
+        member == target and entry.light_linking.link_state == 'EXCLUDE'
+        for entry, member in zip(coll.collection_objects, coll.objects))
+
+
 def test_the_viewport_excludes_objects_given_a_hybrid_material_at_once(bpy,
                                                                        installed_extension):
     """Without the viewport's handler an object given a hybrid material (a
@@ -1117,25 +1125,19 @@ def test_the_viewport_excludes_objects_given_a_hybrid_material_at_once(bpy,
     layer = scene.view_layers[0]
     made = []
 
-    def excluded(target):
-        coll = sun.light_linking.receiver_collection
-        states = {member.as_pointer(): entry.light_linking.link_state
-                  for entry, member in zip(coll.collection_objects, coll.objects)}
-        return states.get(target.as_pointer()) == 'EXCLUDE'
-
     try:
         api.bind_light(node, sun)
         layer.update()
-        assert excluded(obj) and excluded(other)
+        assert _excluded(sun, obj) and _excluded(sun, other)
         other.material_slots[0].material = plain
         layer.update()
-        assert excluded(obj) and not excluded(other)
+        assert _excluded(sun, obj) and not _excluded(sun, other)
         other.material_slots[0].material = mat
         layer.update()
-        assert excluded(other)
+        assert _excluded(sun, other)
         made.append(_mesh_object(bpy, scene, "rm_vp_slots_new", mat))
         layer.update()
-        assert excluded(made[0])
+        assert _excluded(sun, made[0])
         before = set(bpy.data.objects)
         with bpy.context.temp_override(scene=scene, view_layer=layer, selected_objects=[obj],
                                        selected_editable_objects=[obj], active_object=obj):
@@ -1143,7 +1145,7 @@ def test_the_viewport_excludes_objects_given_a_hybrid_material_at_once(bpy,
         made += [o for o in bpy.data.objects if o not in before]
         assert len(made) == 2
         layer.update()
-        assert excluded(made[1])
+        assert _excluded(sun, made[1])
     finally:
         api.unbind_light(node)
         bpy.data.batch_remove(made + [o.data for o in made])
@@ -1169,16 +1171,10 @@ def test_the_viewport_knows_a_new_object_at_a_deleted_ones_address(bpy, installe
     layer = scene.view_layers[0]
     made, reused = [obj, other], 0
 
-    def excluded(target):
-        coll = sun.light_linking.receiver_collection
-        states = {member.as_pointer(): entry.light_linking.link_state
-                  for entry, member in zip(coll.collection_objects, coll.objects)}
-        return states.get(target.as_pointer()) == 'EXCLUDE'
-
     try:
         api.bind_light(node, sun)
         layer.update()
-        assert excluded(obj) and excluded(other)
+        assert _excluded(sun, obj) and _excluded(sun, other)
         for k in range(8):
             gone = made.pop()
             address, mesh = gone.as_pointer(), gone.data
@@ -1188,7 +1184,7 @@ def test_the_viewport_knows_a_new_object_at_a_deleted_ones_address(bpy, installe
             made.append(new)
             reused += new.as_pointer() == address
             layer.update()
-            assert excluded(new), k
+            assert _excluded(sun, new), k
         print(f"\n{reused} of 8 new objects at the deleted one's address")
     finally:
         api.unbind_light(node)
@@ -1211,24 +1207,18 @@ def test_the_viewport_compares_with_what_the_last_sync_left(bpy, installed_exten
     scene, sun, mat, node, (obj, other) = _two_hybrid_objects(api, bpy, "rm_vp_record")
     layer = scene.view_layers[0]
 
-    def excluded(target):
-        coll = sun.light_linking.receiver_collection
-        return coll is not None and any(
-            member == target and entry.light_linking.link_state == 'EXCLUDE'
-            for entry, member in zip(coll.collection_objects, coll.objects))
-
     try:
         # the handler sees a hybrid node bound to nothing (a new scene's first update
         # builds its depsgraph and runs no handler: measured)
         layer.update()
         obj.location.x = 0.5
         layer.update()
-        assert not excluded(obj)
+        assert not _excluded(sun, obj)
         api.bind_light(node, sun)  # a sync: both objects excluded
-        assert excluded(obj) and excluded(other)
+        assert _excluded(sun, obj) and _excluded(sun, other)
         mat.node_tree.nodes.remove(node)  # in the same step: no update between
         layer.update()
-        assert not excluded(obj) and not excluded(other)
+        assert not _excluded(sun, obj) and not _excluded(sun, other)
     finally:
         bpy.data.batch_remove([obj, other, obj.data, other.data])
         bpy.data.scenes.remove(scene)
