@@ -558,6 +558,13 @@ def test_directions_of_any_length_are_directions(model, params):
     (lambda w: R.shade("microfacet", w, w, fresnel="conductor", k=-1), "k must be"),
     (lambda w: R.shade("microfacet", w, w, fresnel="dielectric", ior=0.0), "ior must be"),
     (lambda w: R.brdf("kajiya_kay", w, w), "fibre model"),
+    # directions that are no vectors: numpy gave its own message (a string, a ragged list)
+    # or a TypeError (complex numbers)
+    (lambda w: R.shade("lambert", "up", w), r"wi must be a 3-vector .*, not 'up'"),
+    (lambda w: R.shade("lambert", w, None), r"wo must be a 3-vector .*, not None"),
+    (lambda w: R.shade("phong", w, w, normal=[[0, 1], [1]]), r"normal must be a 3-vector"),
+    (lambda w: R.shade("ward", w, w, tangent=np.zeros((9, 2))), r"not an array of shape \(9, 2\)"),
+    (lambda w: R.shade("lambert", [1j, 0, 1], w), r"wi must be a 3-vector"),
     (lambda w: R.shade("microfacet", w, w, distribution="beckmann", alpha_x=0.2), "together"),
     # the width conversions: numpy gave NaN, or past pi a width repeating with cos
     (lambda w: R.blinn_exponent_from_beta(2.0), r"beta=2.0 is out of range.*\(0, pi/2\)"),

@@ -24,9 +24,13 @@ DEFAULT_TANGENT = (1.0, 0.0, 0.0)
 
 
 def _vec(v, name):
-    arr = np.asarray(v, dtype=float)
+    try:
+        arr = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):  # a string, a ragged list, complex numbers
+        arr = np.zeros(0)
     if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise ValueError(f"{name} must be a 3-vector or an array of shape (..., 3)")
+        given = repr(v) if arr.size <= 3 else f"an array of shape {arr.shape}"
+        raise ValueError(f"{name} must be a 3-vector or an array of shape (..., 3), not {given}")
     return arr
 
 
