@@ -535,7 +535,7 @@ def _draw_node(layout, context, node):
                   if mode != "path_traced" and layer is not None else [])
     if unrendered:
         box.label(text="Exact mode lights with lamps this view layer does not render (in "
-                  "another scene's collections, or instanced): " + ", ".join(
+                  "another scene's collections or in no scene's, or instanced): " + ", ".join(
                       o.name for o in unrendered), icon='INFO')
     blocked = lighting.shadow_linked_lamps(node) if mode != "path_traced" else []
     if blocked:

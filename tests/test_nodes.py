@@ -893,7 +893,7 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
     ctx = shader_editor(scene=scene, view_layer=layer, active_node=node, active_object=None,
                         selected_objects=[])
     message = ("Exact mode lights with lamps this view layer does not render (in another "
-               "scene's collections, or instanced): rm unrendered sun")
+               "scene's collections or in no scene's, or instanced): rm unrendered sun")
 
     def said():
         layer.update()  # Blender builds the layer collections lazily; the UI has them
@@ -931,6 +931,8 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
         rig.hide_render = False
         rig.objects.unlink(sun)  # in another scene's collection only
         assert said()
+        elsewhere.collection.children.unlink(other)  # in a collection of no scene's
+        assert not any(sun.name in s.objects for s in bpy.data.scenes) and said()
         bpy.data.scenes.remove(elsewhere)
     finally:
         _remove_hybrid_scene(bpy, api, node, scene, mat, [sun, rig, other])
