@@ -30,6 +30,7 @@ def _vec(v, name):
         arr = np.zeros(0)
     if arr.ndim == 0 or arr.shape[-1] != 3:
         given = repr(v) if arr.size <= 3 else f"an array of shape {arr.shape}"
+        given = given if len(given) <= 80 else given[:77] + "..."  # a long ragged list
         raise ValueError(f"{name} must be a 3-vector or an array of shape (..., 3), not {given}")
     return arr
 
