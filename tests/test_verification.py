@@ -409,7 +409,7 @@ def test_the_term_outputs_are_the_lecture_s_factors(api, bpy, model, params, bac
     computed from the scene's geometry and ``addon.reference``
     (:func:`_terms_expected`).  Tolerance as exact mode's (float32),
     pixels under 1e-3 of the largest value held to that floor.  Measured
-    by hand at 51 random cases on every backend first: 1.3e-5 at most."""
+    by hand at 55 random cases on both backends first: 1.3e-5 at most."""
     from addon import groups
     from addon import reference as R
     from verification import harness as common
