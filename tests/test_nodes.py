@@ -549,6 +549,13 @@ def shader_editor(tree_type="ShaderNodeTree", **extra):
                            **extra)
 
 
+def node_context(scene, node, **extra):
+    """A shader editor's context with ``node`` active in ``scene`` and no
+    object selected."""
+    return shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[],
+                         **extra)
+
+
 def sidebar_labels(bpy, ctx) -> list:
     """The texts of the labels the sidebar draws in ``ctx``."""
     layout = Recorder()
@@ -705,7 +712,7 @@ def test_sidebar_names_unevenly_scaled_spot_lamps(ui, bpy):
     parent = bpy.data.objects.new("rm scaled parent", None)
     for obj in (spot, parent):
         scene.collection.objects.link(obj)
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Spot cone taken unscaled (Cycles scales it with the lamp's uneven scale): "
                "rm scaled spot")
 
@@ -746,7 +753,7 @@ def test_sidebar_says_when_a_binding_is_an_earlier_versions(ui, bpy):
         lamps.append(bpy.data.objects.new(name, bpy.data.lights.new(name, "SUN")))
         scene.collection.objects.link(lamps[-1])
     api.bind_light(node, *lamps)
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
 
     def message(names):
         return ("Bound by an earlier version, not following Cast Shadow or Disable in Renders: "
@@ -810,7 +817,7 @@ def test_sidebar_says_when_a_bound_lamps_type_changed(ui, bpy):
     The viewport's handler is out: no update here may bind it first."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm retyped")
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     handlers = bpy.app.handlers.depsgraph_update_post
     handlers.remove(ui.on_depsgraph_update_post)
 
@@ -851,7 +858,7 @@ def test_sidebar_says_when_a_bound_lamp_moved_to_other_collections(ui, bpy):
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
     rig = bpy.data.collections.new("rm moved rig")
     scene.collection.children.link(rig)
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Lamp in other or renamed collections or with other light data since binding, "
                "or bound by an older version, for light 1: bound again at the next update, "
                "render or save")
@@ -890,8 +897,7 @@ def test_sidebar_says_when_a_bound_lamp_is_not_rendered_in_the_view_layer(ui, bp
     rig.objects.link(sun)
     scene.collection.objects.unlink(sun)
     layer = scene.view_layers[0]
-    ctx = shader_editor(scene=scene, view_layer=layer, active_node=node, active_object=None,
-                        selected_objects=[])
+    ctx = node_context(scene, node, view_layer=layer)
     message = ("Exact mode lights with lamps this view layer does not render (in another "
                "scene's collections or in no scene's, or instanced): rm unrendered sun")
 
@@ -947,7 +953,7 @@ def test_sidebar_says_when_a_bound_lamp_has_shadow_linking(ui, bpy):
     exact and hybrid mode."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm blockers")
     blockers = bpy.data.collections.new("rm blockers")
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Shadow linking not followed: exact mode's shadow ray sees every object for "
                "rm blockers sun")
     try:
@@ -978,9 +984,7 @@ def test_sidebar_says_what_of_a_lamps_visibility_exact_mode_does_not_follow(ui, 
     hair = None
 
     def said(active):
-        ctx = shader_editor(scene=scene, active_node=active, active_object=None,
-                            selected_objects=[])
-        labels = sidebar_labels(bpy, ctx)
+        labels = sidebar_labels(bpy, node_context(scene, active))
         return rays in labels, factors in labels
 
     try:
@@ -1022,7 +1026,7 @@ def test_sidebar_says_when_a_bound_lamp_has_light_linking_of_the_users(ui, bpy):
     for the collection the hybrid mode made."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm receivers")
     receivers = bpy.data.collections.new("rm receivers")
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Light linking not followed: exact mode lights every object with the material "
                "from rm receivers sun")
     try:
@@ -1060,7 +1064,7 @@ def test_sidebar_says_when_a_bound_lamp_was_deleted(ui, bpy):
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm deleted")
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
     groups = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Lamp deleted for light 1: lit as before until the next update, render or save "
                "sets it to 0")
 
@@ -1095,7 +1099,7 @@ def test_sidebar_says_when_the_scene_has_more_light_linking_collections_than_ble
         scene.collection.objects.link(lamp)
         lamp.light_linking.receiver_collection = bpy.data.collections.new(f"rm sets {i}")
         made += [lamp, lamp.light_linking.receiver_collection]
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = (f"{lighting.RECEIVER_COLLECTIONS_MAX + 1} light linking collections in the "
                f"scene; Blender applies at most {lighting.RECEIVER_COLLECTIONS_MAX}: some "
                "links are ignored")
@@ -1119,7 +1123,7 @@ def test_sidebar_names_a_copy_of_a_bound_lamp_that_excludes_the_hybrid_objects(u
     linking is brought up to date (the render and save handlers do that
     too: tests/test_lighting.py)."""
     api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm stray")
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Bound to no node, yet not lighting the hybrid objects (a copy of a bound "
                "lamp?): rm stray sun.001")
     made = [sun]
@@ -1148,7 +1152,7 @@ def test_sidebar_names_an_unbound_lamp_sharing_a_users_collection_with_a_bound_o
     obj = bpy.data.objects.new("rm sharer obj", bpy.data.meshes.new("rm sharer obj"))
     obj.data.materials.append(mat)
     scene.collection.objects.link(obj)
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     message = ("Not lighting the hybrid objects, sharing a bound lamp's light linking "
                "collection: rm sharer 2")
     try:
@@ -1178,7 +1182,7 @@ def test_sidebar_says_a_lamp_linked_from_a_library_keeps_no_light_linking(ui, bp
         dst.objects = ["rm library sun"]
     linked = dst.objects[0]
     scene.collection.objects.link(linked)
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
     lighting = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".lighting")
     keeps = lighting.override_keeps_light_linking()
     assert keeps == (bpy.app.version >= (5, 2, 0))  # measured in 5.2.4 and 4.5.15
@@ -1217,7 +1221,7 @@ def test_sidebar_says_where_the_bsdf_output_is_not_the_model(ui, bpy):
     node = api.add_model(mat, "microfacet", distribution="trowbridge_reitz",
                          shadowing="smith_correlated", alpha=0.5)
     panel = bpy.types.NODE_PT_rm_sidebar
-    ctx = shader_editor(scene=scene, active_node=node, active_object=None, selected_objects=[])
+    ctx = node_context(scene, node)
 
     def labels():
         layout = Recorder()
