@@ -376,7 +376,7 @@ def rendering_backend(scene=None) -> tuple:
     scene = _scene(scene, "rendering_backend")
     engine = scene.render.engine
     if engine != 'CYCLES':
-        if engine.startswith('BLENDER_EEVEE'):
+        if lighting.is_eevee(scene):
             return "native", "EEVEE runs native nodes"
         return "none", f"the {engine} engine does not render shader nodes"
     problems, warnings = osl_status(scene)

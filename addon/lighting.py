@@ -604,7 +604,10 @@ def unfollowed_ray_lamps(node) -> list:
     return [lamp for lamp in bound_lights(node) if lamp.visible_diffuse != lamp.visible_glossy]
 
 
-EEVEE_ENGINES = ("BLENDER_EEVEE", "BLENDER_EEVEE_NEXT")
+def is_eevee(scene) -> bool:
+    """Whether ``scene`` renders in EEVEE ('BLENDER_EEVEE' in 5.x,
+    'BLENDER_EEVEE_NEXT' in 4.2-4.5)."""
+    return getattr(getattr(scene, "render", None), "engine", "").startswith("BLENDER_EEVEE")
 
 
 def eevee_factor_lamps(node, scene) -> list:
@@ -613,7 +616,7 @@ def eevee_factor_lamps(node, scene) -> list:
     when ``scene`` renders in EEVEE, which scales each kind of closure's
     light by them (measured, 5.2.4 and 4.5.15; Cycles ignores them): exact
     mode does not follow them, a driver having no way to know the engine."""
-    if getattr(getattr(scene, "render", None), "engine", "") not in EEVEE_ENGINES:
+    if not is_eevee(scene):
         return []
     factor = {DIFFUSE: "diffuse_factor", GLOSSY: "specular_factor"}
     names = [factor[prop] for prop in ray_visibility(node)]
