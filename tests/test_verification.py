@@ -11,6 +11,7 @@ cosines) against the lecture's factors.  Measured numbers are printed
 (``pytest -s``).
 """
 
+import dataclasses
 import math
 import re
 
@@ -207,7 +208,8 @@ def test_path_traced_mode_at_random_parameters(bpy, verify, api, backend):
     A second draw of the microfacet model adds its fitted cases (the first
     has one). The draws must reach exact, fitted and approximate cases."""
     status_of = {"osl": "osl", "svm": "native"}[backend]
-    more = [c for c in cases_mod.random_cases(n_microfacet=60, n_other=0, seed=11)
+    more = [dataclasses.replace(c, variant=c.variant.replace("random", "second draw"))
+            for c in cases_mod.random_cases(n_microfacet=60, n_other=0, seed=11)
             if c.path_traced_status(bpy.app.version[:2], status_of) == "fitted"]
     statuses = []
     for case in RANDOM_CASES + more:
