@@ -648,30 +648,47 @@ def _by_identifier(collection, identifier):
     raise KeyError(identifier)
 
 
-def socket_key(node, socket) -> str:
-    """``"in:<param>"`` / ``"out:<output>"`` of a socket of an RM group node."""
-    keys = node.node_tree.get("rm_sockets") or {}
+def socket_key(node, socket, keys=None) -> str:
+    """``"in:<param>"`` / ``"out:<output>"`` of a socket of an RM group node.
+    ``keys``: the group's ``rm_sockets`` property, read here if None."""
+    keys = (node.node_tree.get("rm_sockets") or {}) if keys is None else keys
     key = keys.get(socket.identifier)
     if key:
         return str(key)
     return ("in:" if not socket.is_output else "out:") + socket.name
 
 
+def input_sockets(node) -> dict:
+    """Parameter name -> input socket of RM group ``node``, in one walk of
+    its inputs (for code that looks up many: :func:`input_socket` walks
+    them each time)."""
+    keys = node.node_tree.get("rm_sockets") or {}
+    out = {}
+    for socket in node.inputs:
+        out.setdefault(socket_key(node, socket, keys)[3:], socket)
+    return out
+
+
+def _socket(sockets, node, want):
+    keys = node.node_tree.get("rm_sockets") or {}  # read once, not once a socket
+    return next((s for s in sockets if socket_key(node, s, keys) == want), None)
+
+
 def input_socket(node, name: str):
     """The input socket of RM group ``node`` for parameter ``name``
     (a catalogue name such as ``"beta"`` or ``"light_direction"``)."""
-    for socket in node.inputs:
-        if socket_key(node, socket) == "in:" + name:
-            return socket
-    raise KeyError(f"{node.name!r} has no input for {name!r}")
+    socket = _socket(node.inputs, node, "in:" + name)
+    if socket is None:
+        raise KeyError(f"{node.name!r} has no input for {name!r}")
+    return socket
 
 
 def output_socket(node, name: str):
     """The output socket of RM group ``node`` for shader output ``name``."""
-    for socket in node.outputs:
-        if socket_key(node, socket) == "out:" + name:
-            return socket
-    raise KeyError(f"{node.name!r} has no output {name!r}")
+    socket = _socket(node.outputs, node, "out:" + name)
+    if socket is None:
+        raise KeyError(f"{node.name!r} has no output {name!r}")
+    return socket
 
 
 # ---------------------------------------------------------------------------

@@ -256,14 +256,12 @@ def light_count(node) -> int:
     return int(variant.get(variants.LIGHTS_PARAM.name, variants.LIGHTS_PARAM.default))
 
 
-def _light_sockets(node, k):
-    out = []
-    for name in LIGHT_NAMES:
-        try:
-            out.append(groups.input_socket(node, socket_name(name, k)))
-        except KeyError:
-            pass
-    return out
+def _light_sockets(node, k, sockets=None):
+    """Light k's input sockets of ``node``; ``sockets``: its
+    :func:`groups.input_sockets`, read here if None."""
+    sockets = groups.input_sockets(node) if sockets is None else sockets
+    return [sockets[name] for name in (socket_name(n, k) for n in LIGHT_NAMES)
+            if name in sockets]
 
 
 def light_drivers(node) -> list:
@@ -402,19 +400,20 @@ def bound_lights(node) -> list:
     return [lamp for _k, lamp in _bound_by_light(node)]
 
 
-def outdated_bindings(node) -> list:
+def outdated_bindings(node, bound=None) -> list:
     """The bound lamps that light k follows as an earlier version bound
     them: its Shadows not driven by the lamp's Cast Shadow, or its
     strength not by the lamp's Disable in Renders.  Such a node keeps the
-    values it had (a user may have set them) until bound again."""
+    values it had (a user may have set them) until bound again.
+    ``bound``: :func:`_bound_by_light`, read here if None."""
     anim = node.id_data.animation_data
     drivers = {fc.data_path: fc.driver for fc in anim.drivers} if anim else {}
+    sockets = groups.input_sockets(node)
     out = []
-    for k, lamp in _bound_by_light(node):
-        try:
-            shadows, strength = (groups.input_socket(node, socket_name(name, k))
-                                 for name in ("shadows", "light_strength"))
-        except KeyError:
+    for k, lamp in _bound_by_light(node) if bound is None else bound:
+        shadows = sockets.get(socket_name("shadows", k))
+        strength = sockets.get(socket_name("light_strength", k))
+        if shadows is None or strength is None:
             continue
         driver = drivers.get(strength.path_from_id("default_value"))
         if shadows.path_from_id("default_value") not in drivers or driver is None \
@@ -514,32 +513,36 @@ def unrendered_lamps(node, layer) -> list:
     return out
 
 
-def _socket_driver(node, name, k):
-    """The driver of light k's input ``name`` (of its first component), or
-    None."""
+def _driver_lookup(node):
+    """A function ``(name, k)`` -> the driver of light k's input ``name``
+    of ``node`` (of its first component), or None: the node's sockets
+    and the material's drivers read once, for many lookups."""
     anim = node.id_data.animation_data
-    try:
-        path = groups.input_socket(node, socket_name(name, k)).path_from_id("default_value")
-    except KeyError:
-        return None
-    return next((fc.driver for fc in (anim.drivers if anim else ()) if fc.data_path == path),
-                None)
+    drivers = {}
+    for fc in (anim.drivers if anim else ()):
+        drivers.setdefault(fc.data_path, fc.driver)
+    sockets = groups.input_sockets(node)
+
+    def lookup(name, k):
+        socket = sockets.get(socket_name(name, k))
+        return drivers.get(socket.path_from_id("default_value")) if socket else None
+    return lookup
 
 
 def _strength_driver(node, k):
     """The driver of light k's strength, or None."""
-    return _socket_driver(node, "light_strength", k)
+    return _driver_lookup(node)("light_strength", k)
 
 
-def _strength_reads(node, k):
+def _strength_reads(node, k, driver=None):
     """``(collections, paths, light)`` that light k's strength driver
     reads: the collections whose Disable in Renders it follows (its
     variables c0, c1, ...; None for a collection deleted since), nearest
     first, the view layer's paths to their Exclude switches (v0, v1, ...;
     none in a binding made before the forty-second session), and the
     light datablock of its energy; ``(None, None, None)`` without a
-    driver."""
-    driver = _strength_driver(node, k)
+    driver.  ``driver``: that driver, looked up here if None."""
+    driver = _strength_driver(node, k) if driver is None else driver
     if driver is None:
         return None, None, None
 
@@ -553,10 +556,11 @@ def _strength_reads(node, k):
             energy.targets[0].id if energy is not None else None)
 
 
-def _ray_read(node, k) -> tuple:
+def _ray_read(node, k, driver=None) -> tuple:
     """The lamp object's ray visibility properties light k's strength
-    driver reads (as :func:`ray_visibility` gives them)."""
-    driver = _strength_driver(node, k)
+    driver reads (as :func:`ray_visibility` gives them); ``driver``: that
+    driver, looked up here if None."""
+    driver = _strength_driver(node, k) if driver is None else driver
     out = []
     for name in _ray_names(2):
         var = driver.variables.get(name) if driver is not None else None
@@ -624,25 +628,27 @@ def eevee_factor_lamps(node, scene) -> list:
             if any(getattr(lamp.data, name, 1.0) != 1.0 for name in names)]
 
 
-def retyped_lamps(node) -> list:
+def retyped_lamps(node, bound=None) -> list:
     """``(lamp, the type it was bound as)`` for each bound lamp whose type
     changed since binding: the node still takes it as that type (a sun as
     a direction, a point or spot lamp from its position); an area lamp is
-    not one exact mode follows."""
+    not one exact mode follows.  ``bound``: :func:`_bound_by_light`, read
+    here if None."""
     out = []
-    for k, lamp in _bound_by_light(node):
+    sockets = groups.input_sockets(node)
+    for k, lamp in _bound_by_light(node) if bound is None else bound:
         try:
-            point = groups.input_socket(node, socket_name("point_light", k)).default_value
-            spot = groups.input_socket(node, socket_name("spot", k)).default_value
+            point = sockets[socket_name("point_light", k)].default_value
+            spot = sockets[socket_name("spot", k)].default_value
         except KeyError:
             continue
-        bound = 'SPOT' if spot > 0.5 else 'POINT' if point > 0.5 else 'SUN'
-        if lamp.data.type != bound:
-            out.append((lamp, bound))
+        was = 'SPOT' if spot > 0.5 else 'POINT' if point > 0.5 else 'SUN'
+        if lamp.data.type != was:
+            out.append((lamp, was))
     return out
 
 
-def moved_lamp_lights(node, parents=None) -> list:
+def moved_lamp_lights(node, parents=None, bound=None) -> list:
     """The lights k of ``node`` bound by this version (their strength
     follows the lamp's Disable in Renders) whose lamp is no longer in the
     collections binding read (:func:`collection_paths`: moved to another
@@ -656,16 +662,21 @@ def moved_lamp_lights(node, parents=None) -> list:
     (the Object Data's light replaced: the drivers read the old light's
     strength, colour and cone).  Bindings of the earlier versions are left
     (:func:`outdated_bindings` names them).  ``parents``:
-    :func:`_collection_parents`, read here if None."""
-    outdated, out = set(outdated_bindings(node)), []
+    :func:`_collection_parents`, and ``bound``: :func:`_bound_by_light`,
+    read here if None."""
+    bound = _bound_by_light(node) if bound is None else bound
+    outdated, out = set(outdated_bindings(node, bound)), []
     parents = _collection_parents() if parents is None else parents
-    for k, lamp in _bound_by_light(node):
+    driver_of = _driver_lookup(node)
+    for k, lamp in bound:
         if lamp in outdated:
             continue
-        collections, switches, light = _strength_reads(node, k)
+        strength = driver_of("light_strength", k)
+        collections, switches, light = _strength_reads(node, k, strength)
         _factor, *expected = collection_factor(collection_paths(lamp, parents))
         if [collections, switches] != expected or light != lamp.data \
-                or _ray_read(node, k) != ray_visibility(node) or _euler_direction(node, k):
+                or _ray_read(node, k, strength) != ray_visibility(node) \
+                or _euler_direction(node, k, driver_of):
             out.append(k)
     return out
 
@@ -680,9 +691,10 @@ def rebind_changed_lamps() -> int:
     every material's RM nodes but linked ones.  Returns how many lights."""
     count, parents = 0, _collection_parents()
     for node in _local_rm_nodes():
-        retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node)}
-        moved = set(moved_lamp_lights(node, parents))
-        for k, lamp in _bound_by_light(node):
+        bound = _bound_by_light(node)
+        retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node, bound)}
+        moved = set(moved_lamp_lights(node, parents, bound))
+        for k, lamp in bound:
             if (lamp.as_pointer() in retyped or k in moved) \
                     and lamp.data.type in SUPPORTED_LIGHTS:
                 _bind_one(node, k, lamp)
@@ -702,20 +714,25 @@ def _lamp_targets(node) -> dict:
     (:func:`_places_lamp`; None where that object was deleted), for each
     light of ``node``."""
     anim = node.id_data.animation_data
-    fcurves = list(anim.drivers) if anim else []
-    out = {}
+    sockets = groups.input_sockets(node)
+    light_of, out = {}, {}
     for k in range(1, light_count(node) + 1):
-        paths = {s.path_from_id("default_value") for s in _light_sockets(node, k)}
-        out[k] = [var.targets[0].id for fc in fcurves if fc.data_path in paths
-                  for var in fc.driver.variables if _places_lamp(var)]
+        out[k] = []
+        for s in _light_sockets(node, k, sockets):
+            light_of[s.path_from_id("default_value")] = k
+    for fc in (anim.drivers if anim else ()):  # one walk of the material's drivers
+        k = light_of.get(fc.data_path)
+        if k is not None:
+            out[k] += [var.targets[0].id for var in fc.driver.variables if _places_lamp(var)]
     return out
 
 
-def _euler_direction(node, k) -> bool:
+def _euler_direction(node, k, driver_of=None) -> bool:
     """Whether light k's direction is driven from the Euler angles of the
     lamp's world rotation, as bindings before the forty-second session
-    made it (a mirrored lamp's axis comes out reversed)."""
-    driver = _socket_driver(node, "light_direction", k)
+    made it (a mirrored lamp's axis comes out reversed).  ``driver_of``:
+    :func:`_driver_lookup` of ``node``, made here if None."""
+    driver = (driver_of or _driver_lookup(node))("light_direction", k)
     return driver is not None and any(var.type == 'TRANSFORMS' for var in driver.variables)
 
 
