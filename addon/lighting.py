@@ -123,6 +123,8 @@ def _transform(obj, channel):
 # before the forty-second session read, gave the opposite axis).
 LAMP_Z = "matrix_world[2][{}]"
 LAMP_MATRIX = "matrix_world"
+# the Light inputs whose drivers read where the lamp is (:func:`_lamp_targets`)
+PLACE_INPUTS = ("light_direction", "light_position")
 # A sun's strength is the irradiance (W/m^2).  Radiant intensity (W/sr) of a
 # point or spot lamp of power P, measured against a Diffuse BSDF in Cycles
 # (tests/test_api.py): P / (4 pi) with "normalize" on (the default); with it
@@ -400,15 +402,16 @@ def bound_lights(node) -> list:
     return [lamp for _k, lamp in _bound_by_light(node)]
 
 
-def outdated_bindings(node, bound=None) -> list:
+def outdated_bindings(node, bound=None, sockets=None) -> list:
     """The bound lamps that light k follows as an earlier version bound
     them: its Shadows not driven by the lamp's Cast Shadow, or its
     strength not by the lamp's Disable in Renders.  Such a node keeps the
     values it had (a user may have set them) until bound again.
-    ``bound``: :func:`_bound_by_light`, read here if None."""
+    ``bound``: :func:`_bound_by_light`, and ``sockets``:
+    :func:`groups.input_sockets`, read here if None."""
     anim = node.id_data.animation_data
     drivers = {fc.data_path: fc.driver for fc in anim.drivers} if anim else {}
-    sockets = groups.input_sockets(node)
+    sockets = groups.input_sockets(node) if sockets is None else sockets
     out = []
     for k, lamp in _bound_by_light(node) if bound is None else bound:
         shadows = sockets.get(socket_name("shadows", k))
@@ -513,15 +516,16 @@ def unrendered_lamps(node, layer) -> list:
     return out
 
 
-def _driver_lookup(node):
+def _driver_lookup(node, sockets=None):
     """A function ``(name, k)`` -> the driver of light k's input ``name``
     of ``node`` (of its first component), or None: the node's sockets
-    and the material's drivers read once, for many lookups."""
+    (``sockets``: :func:`groups.input_sockets`, read here if None) and the
+    material's drivers read once, for many lookups."""
     anim = node.id_data.animation_data
     drivers = {}
     for fc in (anim.drivers if anim else ()):
         drivers.setdefault(fc.data_path, fc.driver)
-    sockets = groups.input_sockets(node)
+    sockets = groups.input_sockets(node) if sockets is None else sockets
 
     def lookup(name, k):
         socket = sockets.get(socket_name(name, k))
@@ -628,14 +632,14 @@ def eevee_factor_lamps(node, scene) -> list:
             if any(getattr(lamp.data, name, 1.0) != 1.0 for name in names)]
 
 
-def retyped_lamps(node, bound=None) -> list:
+def retyped_lamps(node, bound=None, sockets=None) -> list:
     """``(lamp, the type it was bound as)`` for each bound lamp whose type
     changed since binding: the node still takes it as that type (a sun as
     a direction, a point or spot lamp from its position); an area lamp is
-    not one exact mode follows.  ``bound``: :func:`_bound_by_light`, read
-    here if None."""
+    not one exact mode follows.  ``bound``: :func:`_bound_by_light`, and
+    ``sockets``: :func:`groups.input_sockets`, read here if None."""
     out = []
-    sockets = groups.input_sockets(node)
+    sockets = groups.input_sockets(node) if sockets is None else sockets
     for k, lamp in _bound_by_light(node) if bound is None else bound:
         try:
             point = sockets[socket_name("point_light", k)].default_value
@@ -648,7 +652,7 @@ def retyped_lamps(node, bound=None) -> list:
     return out
 
 
-def moved_lamp_lights(node, parents=None, bound=None) -> list:
+def moved_lamp_lights(node, parents=None, bound=None, sockets=None, factors=None) -> list:
     """The lights k of ``node`` bound by this version (their strength
     follows the lamp's Disable in Renders) whose lamp is no longer in the
     collections binding read (:func:`collection_paths`: moved to another
@@ -662,18 +666,24 @@ def moved_lamp_lights(node, parents=None, bound=None) -> list:
     (the Object Data's light replaced: the drivers read the old light's
     strength, colour and cone).  Bindings of the earlier versions are left
     (:func:`outdated_bindings` names them).  ``parents``:
-    :func:`_collection_parents`, and ``bound``: :func:`_bound_by_light`,
-    read here if None."""
-    bound = _bound_by_light(node) if bound is None else bound
-    outdated, out = set(outdated_bindings(node, bound)), []
+    :func:`_collection_parents`, ``bound``: :func:`_bound_by_light`, and
+    ``sockets``: :func:`groups.input_sockets`, read here if None;
+    ``factors``: a dict in which a lamp's :func:`collection_factor` is kept
+    for the next call (by the lamp's pointer), or None."""
+    sockets = groups.input_sockets(node) if sockets is None else sockets
+    bound = _bound_by_light(node, sockets) if bound is None else bound
+    outdated, out = set(outdated_bindings(node, bound, sockets)), []
     parents = _collection_parents() if parents is None else parents
-    driver_of = _driver_lookup(node)
+    factors = {} if factors is None else factors
+    driver_of = _driver_lookup(node, sockets)
     for k, lamp in bound:
         if lamp in outdated:
             continue
         strength = driver_of("light_strength", k)
         collections, switches, light = _strength_reads(node, k, strength)
-        _factor, *expected = collection_factor(collection_paths(lamp, parents))
+        if lamp.as_pointer() not in factors:
+            factors[lamp.as_pointer()] = collection_factor(collection_paths(lamp, parents))
+        _factor, *expected = factors[lamp.as_pointer()]
         if [collections, switches] != expected or light != lamp.data \
                 or _ray_read(node, k, strength) != ray_visibility(node) \
                 or _euler_direction(node, k, driver_of):
@@ -689,11 +699,12 @@ def rebind_changed_lamps() -> int:
     its drivers made as binding it now would make them.  An area lamp is
     left as it is (exact mode follows none; the sidebar names it).  In
     every material's RM nodes but linked ones.  Returns how many lights."""
-    count, parents = 0, _collection_parents()
+    count, parents, factors = 0, _collection_parents(), {}
     for node in _local_rm_nodes():
-        bound = _bound_by_light(node)
-        retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node, bound)}
-        moved = set(moved_lamp_lights(node, parents, bound))
+        sockets = groups.input_sockets(node)
+        bound = _bound_by_light(node, sockets)
+        retyped = {lamp.as_pointer() for lamp, _was in retyped_lamps(node, bound, sockets)}
+        moved = set(moved_lamp_lights(node, parents, bound, sockets, factors))
         for k, lamp in bound:
             if (lamp.as_pointer() in retyped or k in moved) \
                     and lamp.data.type in SUPPORTED_LIGHTS:
@@ -709,21 +720,29 @@ def _places_lamp(var) -> bool:
         var.type == 'SINGLE_PROP' and var.targets[0].data_path.startswith(LAMP_MATRIX))
 
 
-def _lamp_targets(node) -> dict:
+def _lamp_targets(node, sockets=None) -> dict:
     """Light k -> the objects the variables of its drivers read the place of
     (:func:`_places_lamp`; None where that object was deleted), for each
-    light of ``node``."""
+    light of ``node``: the drivers of its Light Direction and Light
+    Position, the inputs binding drives from where the lamp is (every
+    version's binding: no other input's driver reads it).  ``sockets``:
+    :func:`groups.input_sockets`, read here if None."""
     anim = node.id_data.animation_data
-    sockets = groups.input_sockets(node)
-    light_of, out = {}, {}
+    drivers = anim.drivers if anim else None
+    sockets = groups.input_sockets(node) if sockets is None else sockets
+    out = {}
     for k in range(1, light_count(node) + 1):
         out[k] = []
-        for s in _light_sockets(node, k, sockets):
-            light_of[s.path_from_id("default_value")] = k
-    for fc in (anim.drivers if anim else ()):  # one walk of the material's drivers
-        k = light_of.get(fc.data_path)
-        if k is not None:
-            out[k] += [var.targets[0].id for var in fc.driver.variables if _places_lamp(var)]
+        for name in PLACE_INPUTS:
+            socket = sockets.get(socket_name(name, k))
+            if socket is None or drivers is None:
+                continue
+            path = socket.path_from_id("default_value")
+            for i in range(len(socket.default_value)):
+                fc = drivers.find(path, index=i)
+                if fc is not None:
+                    out[k] += [var.targets[0].id for var in fc.driver.variables
+                               if _places_lamp(var)]
     return out
 
 
@@ -736,10 +755,11 @@ def _euler_direction(node, k, driver_of=None) -> bool:
     return driver is not None and any(var.type == 'TRANSFORMS' for var in driver.variables)
 
 
-def _bound_by_light(node) -> list:
-    """``(k, lamp object)`` for each light k of ``node`` that follows a lamp."""
+def _bound_by_light(node, sockets=None) -> list:
+    """``(k, lamp object)`` for each light k of ``node`` that follows a lamp;
+    ``sockets``: :func:`groups.input_sockets`, read here if None."""
     out = []
-    for k, targets in _lamp_targets(node).items():
+    for k, targets in _lamp_targets(node, sockets).items():
         found = next((t for t in targets if t is not None), None)
         if found is not None:
             out.append((k, found))
@@ -774,19 +794,31 @@ def hybrid_nodes():
                 yield mat, node
 
 
-def _users(material, evaluated=None, in_scenes=None):
-    """Objects in a scene (``in_scenes``: :func:`groups.object_scenes`, read
-    here if None) with ``material`` in a slot, and those ``evaluated`` (from
-    :func:`_evaluated_users`) gives for it.  An object in no scene renders
-    only as an instance, and then its instancer is excluded (the engines
-    apply the instancer's light linking); one deleted from its scene stays
-    in the data while the extension's collection holds it, and would be
-    held for ever."""
+def _slot_users(in_scenes=None) -> dict:
+    """Material pointer -> the objects in a scene (``in_scenes``:
+    :func:`groups.object_scenes`, read here if None) with it in a slot, in
+    one walk of the objects.  An object in no scene renders only as an
+    instance, and then its instancer is excluded (the engines apply the
+    instancer's light linking); one deleted from its scene stays in the
+    data while the extension's collection holds it, and would be held for
+    ever."""
     in_scenes = groups.object_scenes() if in_scenes is None else in_scenes
-    users = {obj for obj in bpy.data.objects
-             if any(slot.material == material for slot in getattr(obj, "material_slots", ()))
-             and obj.as_pointer() in in_scenes}
-    return users | (evaluated or {}).get(material, set())
+    out = {}
+    for obj in bpy.data.objects:
+        if obj.as_pointer() not in in_scenes:
+            continue
+        for slot in getattr(obj, "material_slots", ()):
+            if slot.material is not None:
+                out.setdefault(slot.material.as_pointer(), set()).add(obj)
+    return out
+
+
+def _users(material, evaluated=None, slot_users=None):
+    """Objects in a scene with ``material`` in a slot (``slot_users``:
+    :func:`_slot_users`, read here if None), and those ``evaluated`` (from
+    :func:`_evaluated_users`) gives for it."""
+    slot_users = _slot_users() if slot_users is None else slot_users
+    return slot_users.get(material.as_pointer(), set()) | (evaluated or {}).get(material, set())
 
 
 def _depsgraphs(scenes, evaluate):
@@ -916,9 +948,9 @@ def _exclusions(evaluate=True, hybrid=None):
     lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
                    for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
-    in_scenes = groups.object_scenes() if hybrid else {}
+    slot_users = _slot_users() if hybrid else {}
     for mat, _node, lamps in hybrid:
-        users = _users(mat, evaluated, in_scenes)
+        users = _users(mat, evaluated, slot_users)
         for lamp in lamps:
             need.setdefault(lamp, set()).update(users)
     return need, unknown
