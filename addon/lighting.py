@@ -883,7 +883,7 @@ def _evaluated_users(evaluate=True, lamp_scenes=None):
     return out, unknown
 
 
-def _hybrid_bindings() -> list:
+def hybrid_bindings() -> list:
     """``(material, node, its bound lamps)`` of every RM node in hybrid mode
     (:func:`hybrid_nodes`)."""
     return [(mat, node, bound_lights(node)) for mat, node in hybrid_nodes()]
@@ -895,11 +895,11 @@ def hybrid_material_ids() -> set:
     never given to another datablock; a pointer is, once its datablock was
     freed (which made the viewport's comparisons miss a change now and
     then)."""
-    return _bound_material_ids(_hybrid_bindings())
+    return _bound_material_ids(hybrid_bindings())
 
 
 def _bound_material_ids(hybrid) -> set:
-    """The session uids of the materials of ``hybrid`` (:func:`_hybrid_bindings`)
+    """The session uids of the materials of ``hybrid`` (:func:`hybrid_bindings`)
     whose nodes are bound to a lamp."""
     return {mat.session_uid for mat, _node, lamps in hybrid if lamps}
 
@@ -934,17 +934,17 @@ def slot_materials(obj, graph=None) -> tuple:
 def _hybrid_lamps() -> set:
     """The lamps hybrid nodes are bound to: the keys of :func:`needed_exclusions`,
     read without any object's materials."""
-    return {lamp for _mat, _node, lamps in _hybrid_bindings() for lamp in lamps}
+    return {lamp for _mat, _node, lamps in hybrid_bindings() for lamp in lamps}
 
 
 def _exclusions(evaluate=True, hybrid=None):
     """``(need, unknown)``: lamp object -> the objects hybrid mode must
     exclude from it (every lamp a hybrid node is bound to, with no object
     yet too), and the objects whose use of a material could not be read
-    (:func:`_evaluated_users`).  ``hybrid``: :func:`_hybrid_bindings`, if
+    (:func:`_evaluated_users`).  ``hybrid``: :func:`hybrid_bindings`, if
     the caller has it."""
     need = {}
-    hybrid = _hybrid_bindings() if hybrid is None else hybrid
+    hybrid = hybrid_bindings() if hybrid is None else hybrid
     lamp_scenes = {scene for _m, _n, lamps in hybrid for lamp in lamps
                    for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
@@ -956,19 +956,20 @@ def _exclusions(evaluate=True, hybrid=None):
     return need, unknown
 
 
-def also_other_materials(node) -> list:
+def also_other_materials(node, hybrid=None) -> list:
     """The objects hybrid mode excludes from ``node``'s bound lamps that
     also render a material no hybrid node bound to that lamp renders with
     (another slot, or what they instance): light linking excludes a whole
     object, so the bound lamp no longer lights those parts.  Read from
     slots and instancing, and from Geometry Nodes where Blender keeps a
     depsgraph of the object's scene (none is evaluated: the sidebar draws
-    it; :func:`groups.materials_as_kept`).  Sorted by name."""
+    it; :func:`groups.materials_as_kept`).  Sorted by name.  ``hybrid``:
+    :func:`hybrid_bindings`, read here if None."""
     lamps = set(bound_lights(node))
     if not lamps:
         return []
     exact = {}
-    for mat, _other, bound in _hybrid_bindings():
+    for mat, _other, bound in hybrid_bindings() if hybrid is None else hybrid:
         for lamp in bound:
             exact.setdefault(lamp, set()).add(mat)
     out, scenes_of, graphs_of = set(), groups.object_scenes(), {}
@@ -1096,7 +1097,7 @@ def sync_light_linking(*, handler=None) -> int:
         raise ValueError(f"handler={handler!r}; allowed: None, 'render', 'update'")
     in_handler = handler is not None
     changes = 0
-    hybrid = _hybrid_bindings()
+    hybrid = hybrid_bindings()
     need, unknown = _exclusions({None: True, "render": "context", "update": False}[handler],
                                 hybrid)
     changes += release_stray_lamps(need)
@@ -1235,12 +1236,12 @@ def receiver_collections(scene) -> int:
     return len(found)
 
 
-def needed_exclusions(evaluate=True) -> dict:
+def needed_exclusions(evaluate=True, hybrid=None) -> dict:
     """Lamp object -> the objects hybrid mode excludes from it (``evaluate``:
-    as for :func:`_evaluated_users`), for :func:`out_of_sync`,
-    :func:`stray_lamps` and :func:`unbound_sharers` to share (the sidebar
-    asks all three)."""
-    return _exclusions(evaluate)[0]
+    as for :func:`_evaluated_users`; ``hybrid``: :func:`hybrid_bindings`,
+    read here if None), for :func:`out_of_sync`, :func:`stray_lamps` and
+    :func:`unbound_sharers` to share (the sidebar asks all three)."""
+    return _exclusions(evaluate, hybrid)[0]
 
 
 def out_of_sync(evaluate=True, need=None) -> bool:

@@ -582,7 +582,8 @@ def _draw_hybrid_linking(box, scene, node, bound, repair_shown=False):
     """The sidebar's labels on a hybrid node's light linking: what Blender's
     light linking cannot do as the mode wants, and what is out of date
     (with the button that brings it up to date, unless ``repair_shown``)."""
-    partly = lighting.also_other_materials(node)
+    hybrid = lighting.hybrid_bindings()  # read once for the labels below
+    partly = lighting.also_other_materials(node, hybrid)
     if partly:
         box.label(text=f"{len(partly)} excluded object(s) also use other materials, "
                   "which the bound lamps no longer light", icon='INFO')
@@ -591,7 +592,7 @@ def _draw_hybrid_linking(box, scene, node, bound, repair_shown=False):
         box.label(text=f"{linked} light linking collections in the scene; Blender applies at "
                   f"most {lighting.RECEIVER_COLLECTIONS_MAX}: some links are ignored",
                   icon='ERROR')
-    need = lighting.needed_exclusions(evaluate=False)
+    need = lighting.needed_exclusions(evaluate=False, hybrid=hybrid)
     missing = lighting.out_of_sync(evaluate=False, need=need)
     if missing:
         box.label(text="Some objects are not excluded from the bound lamps", icon='ERROR')
