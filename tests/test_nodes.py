@@ -8,8 +8,6 @@ Parametrised over ``catalogue.MODELS``.
 import importlib
 import logging
 import math
-import re
-from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -145,7 +143,6 @@ def test_enum_codes_match_the_generated_shaders(nodes):
 @pytest.mark.parametrize("model_id", list(catalogue.MODELS))
 def test_every_default_group_matches_the_catalogue(nodes, model_id):
     tree = nodes.ensure_group(model_id)
-    model = catalogue.MODELS[model_id]
     assert tree.name == nodes.group_name(model_id)
     assert tree["rm_model"] == model_id and tree["rm_version"] == nodes.NODES_VERSION
     _model, variant = nodes.resolve_variant(model_id)

@@ -10,7 +10,6 @@ import importlib
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from verification import harness
 

@@ -232,7 +232,7 @@ def hybrid_bound_lamp(api, model: str, *, osl: bool, resolution=48, eevee=False,
     if placement not in PLACEMENTS:
         raise ValueError(f"placement={placement!r}; allowed: {', '.join(PLACEMENTS)}")
     t0 = time.perf_counter()
-    bpy = common.import_bpy()
+    common.import_bpy()  # Blender prepared before the scene is built
     light = gonio.normalize((0.35, 0.25, 0.90))
     backend = _backend(osl, eevee)
     where = "" if placement == "material" else f"_{placement}"

@@ -9,8 +9,6 @@ Imports bpy inside the functions only.
 
 from __future__ import annotations
 
-from . import emit
-
 GEOMETRY_OUTPUTS = {"N": "Normal", "I": "Incoming", "P": "Position", "Ng": "True Normal"}
 X_STEP, Y_STEP = 190.0, 150.0
 

@@ -13,7 +13,6 @@ import math
 
 import numpy as np
 
-from .. import catalogue
 from .distributions import PI, distribution
 from .fresnel import F_conductor, F_dielectric
 from .shadowing import G_vgroove, S_smith_1967
