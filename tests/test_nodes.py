@@ -305,6 +305,20 @@ def test_a_build_that_fails_leaves_no_group_and_no_part(nodes, bpy, monkeypatch)
     assert set(bpy.data.node_groups) == before
 
 
+@pytest.mark.parametrize("model_id", list(catalogue.MODELS))
+def test_input_sockets_finds_what_input_socket_finds(nodes, bpy, model_id):
+    """``input_sockets`` (one walk of a node's inputs, for the lamp
+    bindings' upkeep) names every input of a four-light group by its
+    parameter, each the socket ``input_socket`` finds."""
+    tree = nodes.ensure_group(model_id, lights="4")
+    node = add_group_node(new_material(bpy), tree)
+    found = nodes.input_sockets(node)
+    names = [p.name for p in nodes.input_params(model_id, {"lights": "4"})]
+    assert list(found) == names and "light_position_4" in found
+    for name in names:
+        assert found[name] == nodes.input_socket(node, name)
+
+
 def test_a_foreign_group_with_the_same_name_is_not_taken(nodes, bpy):
     foreign = bpy.data.node_groups.new("RM Lambert", "ShaderNodeTree")
     tree = nodes.ensure_group("lambert")
