@@ -709,7 +709,12 @@ def snapshot(node) -> dict:
     socket key.
 
     Drivers and keyframes are kept as the F-curves themselves: their data
-    paths hold socket indices, which :func:`restore` rewrites."""
+    paths held socket indices, and are set here to paths by the socket's
+    identifier until :func:`restore` writes them by index again.  (At the
+    swap of a node's group Blender can delete the F-curves whose index path
+    no longer resolves, an index past the new group's inputs: drivers when
+    the tree also has keyframes, and keyframes; writing to such an F-curve
+    crashed Blender, measured in 5.2.4.  A path by identifier keeps them.)"""
     owner = node.id_data
     snap = {"inputs": {}, "in_links": {}, "out_links": {}, "drivers": [], "keyframes": []}
     for socket in node.inputs:
@@ -729,15 +734,21 @@ def snapshot(node) -> dict:
         for fcurve in anim.drivers:
             m = _INPUT_PATH.match(fcurve.data_path)
             if m and m.group("node") == prefix and int(m.group("index")) < len(node.inputs):
-                key = socket_key(node, node.inputs[int(m.group("index"))])
-                snap["drivers"].append((fcurve, key, m.group("rest")))
+                socket = node.inputs[int(m.group("index"))]
+                snap["drivers"].append((fcurve, socket_key(node, socket), m.group("rest")))
+                fcurve.data_path = _identifier_path(prefix, socket, m.group("rest"))
         for fcurve in _action_fcurves(anim):
             m = _INPUT_PATH.match(fcurve.data_path)
             if m and m.group("node") == prefix and int(m.group("index")) < len(node.inputs):
                 socket = node.inputs[int(m.group("index"))]
                 snap["keyframes"].append(
                     (fcurve, socket_key(node, socket), socket.name, m.group("rest")))
+                fcurve.data_path = _identifier_path(prefix, socket, m.group("rest"))
     return snap
+
+
+def _identifier_path(prefix, socket, rest) -> str:
+    return f'{prefix}.inputs["{bpy.utils.escape_identifier(socket.identifier)}"].{rest}'
 
 
 def _action_fcurves(anim) -> list:
@@ -791,13 +802,20 @@ def restore(node, snap: dict) -> None:
     anim = owner.animation_data
     prefix = node.path_from_id()
     index_of = {socket_key(node, s): i for i, s in enumerate(node.inputs)}
+    alive = {fcurve.as_pointer() for fcurve in anim.drivers} if anim is not None else set()
     for fcurve, key, rest in snap["drivers"]:
+        if fcurve.as_pointer() not in alive:  # deleted by Blender after all: never touched
+            continue
         if key not in index_of:
             anim.drivers.remove(fcurve)
             continue
         fcurve.data_path = f"{prefix}.inputs[{index_of[key]}].{rest}"
         fcurve.driver.is_valid = True
+    alive = {fcurve.as_pointer() for fcurve in _action_fcurves(anim)} if anim is not None \
+        else set()
     for fcurve, key, name, rest in snap["keyframes"]:
+        if fcurve.as_pointer() not in alive:
+            continue
         if key in index_of:
             fcurve.data_path = f"{prefix}.inputs[{index_of[key]}].{rest}"
         else:

@@ -456,6 +456,36 @@ def test_width_switch_keeps_keyframes_on_their_parameters(nodes, bpy):
         "default_value")
 
 
+@pytest.mark.parametrize("model_id", ["kajiya_kay", "ward"])
+def test_a_switch_to_fewer_lights_keeps_drivers_past_them(nodes, bpy, model_id):
+    """A driver on an input after the Light inputs (the tangent's), in a tree
+    that also has keyframes: at the swap of the node's group for one with
+    fewer lights Blender deleted the F-curves whose index path no longer
+    resolved, and writing their new path crashed Blender (5.2.4). The
+    driver and the keyframes stay, on their own inputs."""
+    mat = new_material(bpy)
+    node = add_group_node(mat, nodes.ensure_group(model_id, lights="4"))
+    tangent = nodes.input_socket(node, "tangent").driver_add("default_value")
+    for i, fcurve in enumerate(tangent):
+        fcurve.driver.expression = f"0.{i + 1}"
+    turn = nodes.input_socket(node, "tangent_rotation")
+    spot = nodes.input_socket(node, "spot")
+    for frame, value in ((1, 0.25), (9, 0.75)):
+        turn.default_value = spot.default_value = value
+        turn.keyframe_insert("default_value", frame=frame)
+        spot.keyframe_insert("default_value", frame=frame)
+    for lights in ("1", "3", "1"):
+        nodes.switch_variant(node, lights=lights)
+    anim = mat.node_tree.animation_data
+    path = nodes.input_socket(node, "tangent").path_from_id("default_value")
+    assert sorted((fc.array_index, fc.driver.expression) for fc in anim.drivers
+                  if fc.data_path == path) == [(0, "0.1"), (1, "0.2"), (2, "0.3")]
+    keys = {fc.data_path: fc for fc in nodes._action_fcurves(anim)}
+    for name in ("tangent_rotation", "spot"):
+        fcurve = keys[nodes.input_socket(node, name).path_from_id("default_value")]
+        assert fcurve.evaluate(9) == pytest.approx(0.75)
+
+
 def test_variant_switch_resets_a_conflicting_enum(nodes, bpy):
     tree = nodes.ensure_group("microfacet", shadowing="smith_1967")
     node = add_group_node(new_material(bpy), tree)
