@@ -402,25 +402,19 @@ def bound_lights(node) -> list:
     return [lamp for _k, lamp in _bound_by_light(node)]
 
 
-def outdated_bindings(node, bound=None, sockets=None) -> list:
+def outdated_bindings(node, bound=None, driver_of=None) -> list:
     """The bound lamps that light k follows as an earlier version bound
     them: its Shadows not driven by the lamp's Cast Shadow, or its
     strength not by the lamp's Disable in Renders.  Such a node keeps the
     values it had (a user may have set them) until bound again.
-    ``bound``: :func:`_bound_by_light`, and ``sockets``:
-    :func:`groups.input_sockets`, read here if None."""
-    anim = node.id_data.animation_data
-    drivers = {fc.data_path: fc.driver for fc in anim.drivers} if anim else {}
-    sockets = groups.input_sockets(node) if sockets is None else sockets
+    ``bound``: :func:`_bound_by_light`, and ``driver_of``:
+    :func:`_driver_lookup` of ``node``, read here if None."""
+    driver_of = _driver_lookup(node) if driver_of is None else driver_of
     out = []
     for k, lamp in _bound_by_light(node) if bound is None else bound:
-        shadows = sockets.get(socket_name("shadows", k))
-        strength = sockets.get(socket_name("light_strength", k))
-        if shadows is None or strength is None:
-            continue
-        driver = drivers.get(strength.path_from_id("default_value"))
-        if shadows.path_from_id("default_value") not in drivers or driver is None \
-                or HIDDEN not in {v.name for v in driver.variables}:
+        strength = driver_of("light_strength", k)
+        if driver_of("shadows", k) is None or strength is None \
+                or HIDDEN not in {v.name for v in strength.variables}:
             out.append(lamp)
     return out
 
@@ -672,10 +666,10 @@ def moved_lamp_lights(node, parents=None, bound=None, sockets=None, factors=None
     for the next call (by the lamp's pointer), or None."""
     sockets = groups.input_sockets(node) if sockets is None else sockets
     bound = _bound_by_light(node, sockets) if bound is None else bound
-    outdated, out = set(outdated_bindings(node, bound, sockets)), []
+    driver_of = _driver_lookup(node, sockets)
+    outdated, out = set(outdated_bindings(node, bound, driver_of)), []
     parents = _collection_parents() if parents is None else parents
     factors = {} if factors is None else factors
-    driver_of = _driver_lookup(node, sockets)
     for k, lamp in bound:
         if lamp in outdated:
             continue
