@@ -576,11 +576,51 @@ def test_directions_of_any_length_are_directions(model, params):
     (lambda w: R.beta_from_beckmann_m(float("inf")), r"m=inf is out of range"),
     (lambda w: R.beta_from_tr_alpha(float("nan")), "undefined"),
     (lambda w: R.D_blinn(0.0, 0.0, 1.0, 1.6), r"beta=1.6 is out of range"),
+    # the native widths: a negative one gave its absolute value's lobe, 0 a
+    # ZeroDivisionError, NaN a NaN
+    (lambda w: R.D_trowbridge_reitz(0.0, 0.0, 1.0, -0.3, 0.3),
+     r"ax=-0.3 is out of range.*\(0, inf"),
+    (lambda w: R.D_beckmann(0.0, 0.0, 1.0, 0.3, 0.0), r"ay=0.0 is out of range"),
+    (lambda w: R.Lambda_trowbridge_reitz(0.5, 0.0, 0.8, float("nan"), 0.3), r"ax=nan is out"),
+    (lambda w: R.Lambda_beckmann(0.5, 0.0, 0.8, 0.3, float("inf")), r"ay=inf is out"),
+    (lambda w: R.S_smith_1967(0.5, 0.0, 0.8, -1.0, 0.3), r"ax=-1.0 is out of range"),
+    (lambda w: R.distribution("trowbridge_reitz", alpha=0.0), r"alpha=0.0 is out of range"),
+    (lambda w: R.distribution("beckmann", alpha_x=0.2, alpha_y=-0.2), r"alpha_y=-0.2 is out"),
+    (lambda w: R.distribution("gaussian", beta=-1.0), r"beta=-1.0 is out of range"),
+    (lambda w: R.Blinn(2.0), r"beta=2.0 is out of range"),
+    (lambda w: R.TrowbridgeReitz([0.2, float("nan")]), r"alpha_x=nan is out of range"),
+    # the Fresnel indices: a negative one passed as its absolute value, NaN gave 1
+    (lambda w: R.F_dielectric(0.5, -1.5), r"ior=-1.5 is out of range; ior must be .* above 0"),
+    (lambda w: R.F_dielectric(0.5, float("nan")), r"ior=nan is out of range"),
+    (lambda w: R.F_dielectric(0.5, float("inf")), r"ior=inf is out of range"),
+    (lambda w: R.F_conductor(0.5, -0.2, 3.0), r"n=-0.2 is out of range; n must be .* at least 0"),
+    (lambda w: R.F_conductor(0.5, (0.2, 0.3, 0.4), (3.0, -1.0, 2.0)), r"k=-1.0 is out of range"),
 ])
 def test_bad_input_raises_value_error_naming_what_is_allowed(call, match):
     w = np.array([0.0, 0.0, 1.0])
     with pytest.raises(ValueError, match=match):
         call(w)
+
+
+def test_the_terms_keep_their_ranges_outside_their_domain():
+    """Facet normals below the surface have no density; a cosine past [0, 1]
+    gives Fresnel's end value (it gave 280 at c = -0.5); V-groove's G stays
+    in [0, 1] (it gave -4.5 for a negative L.H) and NaN stays NaN."""
+    below = (0.1, 0.0, -0.99)
+    for d in (R.Blinn(0.3), R.Gaussian(0.3), R.TrowbridgeReitz(0.3), R.Beckmann(0.3)):
+        assert d.D(*below) == 0.0 and d.D(0.3, 0.0, 0.0) == 0.0, d
+        assert d.D(0.1, 0.0, 0.99) > 0.0 and np.isnan(d.D(0.1, 0.0, np.nan)), d
+    c = np.array([-0.5, 0.0, 1.0, 1.5, np.nan])
+    for f in (lambda c: R.F_dielectric(c, 1.5), lambda c: R.F_conductor(c, 0.2, 3.0)):
+        got = f(c)
+        np.testing.assert_array_equal(got[:2], [1.0, 1.0])
+        np.testing.assert_array_equal(got[3], got[2])
+        assert np.isnan(got[4])
+    assert R.F_dielectric(np.nan, 1.5) != 1.0  # NaN, not total internal reflection
+    g = R.G_vgroove(np.array([0.5, -0.5, 0.5, 0.5, 0.5]), 0.5, 0.9,
+                    np.array([-0.2, 0.5, 0.0, np.nan, 0.95]))
+    np.testing.assert_array_equal(g[:3], [1.0, 0.0, 1.0])
+    assert np.isnan(g[3]) and 0.0 < g[4] < 1.0
 
 
 def test_a_colour_is_grey_as_a_scalar_or_a_last_axis_of_one():

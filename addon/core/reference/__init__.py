@@ -20,10 +20,12 @@ Angles are radians.
 Also public: the microfacet distributions as types (:func:`distribution`,
 :class:`Blinn`, :class:`Gaussian`, :class:`TrowbridgeReitz`,
 :class:`Beckmann`: D, Lambda, G1, G) and as functions with explicit widths
-(``D_*``, ``Lambda_*``), the width conversions (each raises ``ValueError``
-naming its range for an argument outside it: beta in (0, pi/2), the
-exponent and m above 0, ...), shadowing, Fresnel and a double-precision
-``erf``/``erfc``.
+(``D_*``, ``Lambda_*``), the width conversions, shadowing, Fresnel and a
+double-precision ``erf``/``erfc``.  Each raises ``ValueError`` naming its
+range for a width or index outside it (beta in (0, pi/2); the exponent, m,
+alpha and a dielectric's index above 0; a conductor's n and k at least 0;
+NaN and infinities included).  D is 0 for a facet normal below the surface;
+Fresnel clamps its cosine to [0, 1]; V-groove's G stays in [0, 1].
 
 Hand-written from the lecture (``shared/lecture-reflection-models.txt``,
 conventions and errata in ``shared/LECTURE-NOTES.md``); never generated from

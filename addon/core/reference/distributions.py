@@ -136,7 +136,7 @@ def beta_from_beckmann_m(m):
 
 # --------------------------------------------------------------------------
 # Distributions, normalised so that  int D(h) cos(theta_h) dw_h = 1.
-# Arguments: the half vector's local components.
+# Arguments: the half vector's local components; D is 0 below the surface.
 # --------------------------------------------------------------------------
 
 GAUSSIAN_NORM_NODES = 64
@@ -182,7 +182,22 @@ def gaussian_norm(beta):
 
 
 def _tan2(hx, hy, hz):
-    return (hx * hx + hy * hy) / (hz * hz)
+    return np.divide(hx * hx + hy * hy, np.multiply(hz, hz))  # numpy's inf at hz = 0
+
+
+def _native(a, name):
+    """A native width (GGX alpha, Beckmann m) as a float array: finite and
+    above 0, else ValueError naming the range (a negative one would give the
+    same lobe as its absolute value, 0 a division by zero)."""
+    return _within(a, name, 0.0)
+
+
+def _upper_only(d, hz):
+    """``d`` where the facet normal is above the surface (hz > 0), else 0:
+    microfacets face outward, every D is normalised over the upper hemisphere.
+    A NaN stays NaN."""
+    hz = np.asarray(hz)
+    return np.where(hz > 0.0, d, np.where(hz <= 0.0, 0.0, np.nan))
 
 
 def D_blinn(hx, hy, hz, beta):
@@ -191,19 +206,24 @@ def D_blinn(hx, hy, hz, beta):
     cos^c is evaluated as exp(-c/2 ln(1 + tan^2)) so narrow lobes keep precision.
     """
     c = blinn_exponent_from_beta(beta)
-    return (c + 2.0) / (2.0 * PI) * np.exp(-0.5 * c * np.log1p(_tan2(hx, hy, hz)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = (c + 2.0) / (2.0 * PI) * np.exp(-0.5 * c * np.log1p(_tan2(hx, hy, hz)))
+    return _upper_only(d, hz)
 
 
 def D_gaussian(hx, hy, hz, beta):
     """Gaussian (Torrance-Sparrow): D = K exp(-(c2 alpha)^2), c2 = sqrt(ln2)/beta."""
     alpha = np.arctan2(np.sqrt(hx * hx + hy * hy), hz)
-    return gaussian_norm(beta) * np.exp(-(gaussian_c2_from_beta(beta) * alpha) ** 2)
+    d = gaussian_norm(beta) * np.exp(-(gaussian_c2_from_beta(beta) * alpha) ** 2)
+    return _upper_only(d, hz)
 
 
 def D_trowbridge_reitz(hx, hy, hz, ax, ay):
     """Trowbridge-Reitz = GGX (Walter 2007, eq. 33; anisotropic form of Heitz 2014)."""
+    ax, ay = _native(ax, "ax"), _native(ay, "ay")
     e = (hx / ax) ** 2 + (hy / ay) ** 2 + hz * hz
-    return 1.0 / (PI * ax * ay * e * e)
+    with np.errstate(divide="ignore"):
+        return _upper_only(1.0 / (PI * ax * ay * e * e), hz)
 
 
 def D_beckmann(hx, hy, hz, ax, ay):
@@ -212,8 +232,11 @@ def D_beckmann(hx, hy, hz, ax, ay):
     The slide prints 1/(sqrt(pi) m^2 cos^2), which does not integrate to 1
     under int D cos = 1; the normalised form is used.
     """
-    hz2 = hz * hz
-    return np.exp(-((hx / ax) ** 2 + (hy / ay) ** 2) / hz2) / (PI * ax * ay * hz2 * hz2)
+    ax, ay = _native(ax, "ax"), _native(ay, "ay")
+    hz2 = np.multiply(hz, hz)  # an array: numpy's inf at hz = 0, not ZeroDivisionError
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        d = np.exp(-((hx / ax) ** 2 + (hy / ay) ** 2) / hz2) / (PI * ax * ay * hz2 * hz2)
+    return _upper_only(d, hz)
 
 
 # --------------------------------------------------------------------------
@@ -224,13 +247,16 @@ def D_beckmann(hx, hy, hz, ax, ay):
 def Lambda_trowbridge_reitz(wx, wy, wz, ax, ay):
     """Lambda = (-1 + sqrt(1 + alpha^2 tan^2 theta))/2, alpha projected on the
     direction's azimuth (Heitz 2014, eq. 86)."""
-    a2t2 = ((wx * ax) ** 2 + (wy * ay) ** 2) / (wz * wz)
+    ax, ay = _native(ax, "ax"), _native(ay, "ay")
+    with np.errstate(divide="ignore", invalid="ignore"):  # grazing: infinite (G1 = 0)
+        a2t2 = ((wx * ax) ** 2 + (wy * ay) ** 2) / (wz * wz)
     return 0.5 * (np.sqrt(1.0 + a2t2) - 1.0)
 
 
 def Lambda_beckmann(wx, wy, wz, ax, ay):
     """Lambda = (erf(a) - 1)/2 + exp(-a^2)/(2 a sqrt pi), a = 1/(m tan theta)
     (Walter 2007, eq. 27; the slide's 2 Lambda with its RMS slope m/sqrt2)."""
+    ax, ay = _native(ax, "ax"), _native(ay, "ay")
     r = np.sqrt((wx * ax) ** 2 + (wy * ay) ** 2)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         a = wz / r
@@ -406,7 +432,7 @@ class Blinn(Distribution):
     name = "blinn"
 
     def __init__(self, beta):
-        self.beta = np.asarray(beta, dtype=float)
+        self.beta = _within(beta, "beta", 0.0, 0.5 * PI)
 
     @property
     def exponent(self):
@@ -436,8 +462,8 @@ class TrowbridgeReitz(Distribution):
     name = "trowbridge_reitz"
 
     def __init__(self, alpha_x, alpha_y=None):
-        self.alpha_x = np.asarray(alpha_x, dtype=float)
-        self.alpha_y = self.alpha_x if alpha_y is None else np.asarray(alpha_y, dtype=float)
+        self.alpha_x = _native(alpha_x, "alpha_x")
+        self.alpha_y = self.alpha_x if alpha_y is None else _native(alpha_y, "alpha_y")
         self.isotropic = alpha_y is None
 
     @classmethod
@@ -483,7 +509,7 @@ def distribution(name, *, beta=None, alpha=None, alpha_x=None, alpha_y=None) -> 
     if cls in (Blinn, Gaussian):
         raise ValueError(f"{name!r} takes beta only (got {', '.join(given) or 'no width'})")
     if given == ["alpha"]:
-        return cls(alpha)
+        return cls(_native(alpha, "alpha"))
     if given == ["alpha_x", "alpha_y"]:
         return cls(alpha_x, alpha_y)
     raise ValueError(f"give one width for {name!r}: beta, alpha, or alpha_x with alpha_y "

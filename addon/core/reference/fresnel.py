@@ -7,20 +7,47 @@ from __future__ import annotations
 import numpy as np
 
 
+def _index(x, name, positive):
+    """An index part as a float array: finite and above 0 (``positive``) or
+    at least 0, else ValueError naming the range (the formulas hold only
+    their squares: a negative index would pass as its absolute value)."""
+    arr = np.asarray(x, dtype=float)
+    ok = np.isfinite(arr) & ((arr > 0.0) if positive else (arr >= 0.0))
+    if not np.all(ok):
+        bad = float(arr[~ok].ravel()[0]) if arr.ndim else float(arr)
+        raise ValueError(f"{name}={bad!r} is out of range; {name} must be a finite number "
+                         f"{'above' if positive else 'at least'} 0")
+    return arr
+
+
+def _cosine(c):
+    """The cosine clamped to [0, 1] (NaN stays NaN): past normal incidence and
+    below the surface the reflectance is that of the nearest end."""
+    return np.clip(np.asarray(c, dtype=float), 0.0, 1.0)
+
+
 def F_dielectric(c, ior):
     """Exact unpolarised Fresnel reflectance of a dielectric of real index ``ior``
-    (Cook & Torrance 1982, eq. in appendix); total internal reflection gives 1."""
+    (Cook & Torrance 1982, eq. in appendix); total internal reflection gives 1.
+
+    ``c`` is the cosine of the angle of incidence, clamped to [0, 1]; ``ior``
+    must be finite and above 0 (ValueError otherwise)."""
+    c, ior = _cosine(c), _index(ior, "ior", True)
     g2 = ior * ior - 1.0 + c * c
     g = np.sqrt(np.maximum(g2, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
         a = (g - c) / (g + c)
         b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0)
-    return np.where(g2 > 0.0, 0.5 * a * a * (1.0 + b * b), 1.0)
+    return np.where(g2 > 0.0, 0.5 * a * a * (1.0 + b * b), np.where(g2 <= 0.0, 1.0, np.nan))
 
 
 def F_conductor(c, n, k):
     """Exact unpolarised Fresnel reflectance for a complex index n + ik
-    (Born & Wolf; real-arithmetic form with a^2 + b^2 = |eta^2 - sin^2|)."""
+    (Born & Wolf; real-arithmetic form with a^2 + b^2 = |eta^2 - sin^2|).
+
+    ``c`` is the cosine of the angle of incidence, clamped to [0, 1]; ``n``
+    and ``k`` must be finite and at least 0 (ValueError otherwise)."""
+    c, n, k = _cosine(c), _index(n, "n", False), _index(k, "k", False)
     c2 = c * c
     s2 = 1.0 - c2
     t0 = (n * n - k * k - 1.0) + c2  # n^2 - k^2 - sin^2: 1 - c2 lost c2 near grazing

@@ -15,8 +15,15 @@ from .special import erfc
 
 def G_vgroove(ci, co, ch, cih):
     """V-groove G = min(1, 2(N.H)(N.E)/(E.H), 2(N.H)(N.L)/(L.H))
-    (slide: "Self-Shadowing: V-Groove Model"); E.H = L.H for the half vector."""
-    return np.minimum(1.0, 2.0 * ch * np.minimum(ci, co) / cih)
+    (slide: "Self-Shadowing: V-Groove Model"); E.H = L.H for the half vector.
+
+    Arguments are cosines: N.L, N.E, N.H, L.H; negative ones count as 0.  G
+    is in [0, 1]: 0 where a cosine of the numerator is 0, 1 where L.H is 0 and
+    the numerator is not (the limit); a NaN gives NaN."""
+    ci, co, ch, cih = (np.maximum(np.asarray(x, dtype=float), 0.0) for x in (ci, co, ch, cih))
+    num = 2.0 * ch * np.minimum(ci, co)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(num > 0.0, np.minimum(1.0, num / cih), 0.0 * num)  # NaN stays NaN
 
 
 def S_smith_1967(wx, wy, wz, ax, ay):
