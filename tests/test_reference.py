@@ -617,6 +617,12 @@ def test_the_terms_keep_their_ranges_outside_their_domain():
         np.testing.assert_array_equal(got[3], got[2])
         assert np.isnan(got[4])
     assert R.F_dielectric(np.nan, 1.5) != 1.0  # NaN, not total internal reflection
+    # a direction on or below the surface is masked (G1 = 0) by every Lambda;
+    # GGX's gave the mirrored direction's and Beckmann's 0 (G1 = 1)
+    for w in ((0.6, 0.0, -0.8), (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)):
+        for d in (R.Blinn(0.3), R.Gaussian(0.3), R.TrowbridgeReitz(0.3), R.Beckmann(0.3)):
+            assert d.G1(*w) == 0.0, (d, w)
+        assert R.S_smith_1967(*w, 0.3, 0.3) == 0.0, w
     g = R.G_vgroove(np.array([0.5, -0.5, 0.5, 0.5, 0.5]), 0.5, 0.9,
                     np.array([-0.2, 0.5, 0.0, np.nan, 0.95]))
     np.testing.assert_array_equal(g[:3], [1.0, 0.0, 1.0])

@@ -24,8 +24,9 @@ Also public: the microfacet distributions as types (:func:`distribution`,
 double-precision ``erf``/``erfc``.  Each raises ``ValueError`` naming its
 range for a width or index outside it (beta in (0, pi/2); the exponent, m,
 alpha and a dielectric's index above 0; a conductor's n and k at least 0;
-NaN and infinities included).  D is 0 for a facet normal below the surface;
-Fresnel clamps its cosine to [0, 1]; V-groove's G stays in [0, 1].
+NaN and infinities included).  D is 0 for a facet normal below the surface,
+Lambda infinite (G1 = 0) for a direction on or below it; Fresnel clamps its
+cosine to [0, 1]; V-groove's G stays in [0, 1].
 
 Hand-written from the lecture (``shared/lecture-reflection-models.txt``,
 conventions and errata in ``shared/LECTURE-NOTES.md``); never generated from

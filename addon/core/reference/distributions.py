@@ -241,7 +241,8 @@ def D_beckmann(hx, hy, hz, ax, ay):
 
 # --------------------------------------------------------------------------
 # Smith's Lambda (slide: "Self-Shadowing Function"; Walter 2007).
-# Arguments: a direction's local components.
+# Arguments: a direction's local components.  A direction on or below the
+# surface (wz <= 0, NaN too) has an infinite Lambda: G1 = 0, as the series'.
 # --------------------------------------------------------------------------
 
 def Lambda_trowbridge_reitz(wx, wy, wz, ax, ay):
@@ -250,7 +251,8 @@ def Lambda_trowbridge_reitz(wx, wy, wz, ax, ay):
     ax, ay = _native(ax, "ax"), _native(ay, "ay")
     with np.errstate(divide="ignore", invalid="ignore"):  # grazing: infinite (G1 = 0)
         a2t2 = ((wx * ax) ** 2 + (wy * ay) ** 2) / (wz * wz)
-    return 0.5 * (np.sqrt(1.0 + a2t2) - 1.0)
+        lam = 0.5 * (np.sqrt(1.0 + a2t2) - 1.0)
+    return np.where(np.asarray(wz) > 0.0, lam, np.inf)
 
 
 def Lambda_beckmann(wx, wy, wz, ax, ay):
@@ -261,7 +263,7 @@ def Lambda_beckmann(wx, wy, wz, ax, ay):
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         a = wz / r
         lam = 0.5 * (np.exp(-a * a) / (a * SQRT_PI) - erfc(a))
-    return np.where(r > 0.0, np.maximum(lam, 0.0), 0.0)
+    return np.where(np.asarray(wz) > 0.0, np.where(r > 0.0, np.maximum(lam, 0.0), 0.0), np.inf)
 
 
 # Numerical Lambda for distributions without a closed form (Blinn, Gaussian).
