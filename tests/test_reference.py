@@ -236,6 +236,26 @@ def test_lambda_chebyshev_matches_direct_quadrature(dist):
     assert worst < 2e-6
 
 
+@pytest.mark.parametrize("dist", ["blinn", "gaussian"])
+def test_lambda_beyond_the_series_range_is_the_quadrature(dist):
+    """The series covers the catalogue's beta (1 to 85 deg); the types and
+    Lambda_chebyshev take beta in (0, 90 deg), where the series extrapolated
+    (Gaussian at 89.9 deg: 0.65 for 0.053 at 30 deg).  Beyond its range they
+    are the quadrature; a beta per direction mixes both."""
+    theta = np.array([0.0, 30.0, 60.0, 80.0, 89.0]) * DEG
+    w = sph(theta)
+    betas = np.array([0.05, 0.5, 87.0, 89.0, 89.9]) * DEG
+    for beta in betas:
+        lq = R.Aminus_quadrature(np.cos(theta), beta, dist, nodes=96) / np.cos(theta)
+        got = R.distribution(dist, beta=beta).Lambda(w[:, 0], w[:, 1], w[:, 2])
+        # the same quadrature: only the order of the sums may differ
+        np.testing.assert_allclose(got, lq, rtol=1e-12, atol=1e-300)
+    mixed = np.array([0.5, 20.0, 70.0, 89.0, 89.9]) * DEG
+    together = R.Lambda_chebyshev(w[:, 0], w[:, 1], w[:, 2], mixed, dist)
+    apart = [R.Lambda_chebyshev(*w[i], mixed[i], dist) for i in range(5)]
+    np.testing.assert_allclose(together, np.array(apart, dtype=float), rtol=1e-13)
+
+
 def test_lambda_chebyshev_broadcasts_beta():
     """A beta per direction (a textured beta) gives what one beta at a time does."""
     betas = np.array([2.0, 20.0, 70.0]) * DEG
@@ -595,6 +615,11 @@ def test_directions_of_any_length_are_directions(model, params):
     (lambda w: R.F_dielectric(0.5, float("inf")), r"ior=inf is out of range"),
     (lambda w: R.F_conductor(0.5, -0.2, 3.0), r"n=-0.2 is out of range; n must be .* at least 0"),
     (lambda w: R.F_conductor(0.5, (0.2, 0.3, 0.4), (3.0, -1.0, 2.0)), r"k=-1.0 is out of range"),
+    # the quadrature took any other name for the Gaussian, numpy's messages otherwise
+    (lambda w: R.Aminus_quadrature(0.5, 0.3, "beckmann"), r"'beckmann'; the quadrature is for"),
+    (lambda w: R.Aminus_quadrature(0.5, 0.3, "blinn", nodes=2.5), r"nodes=2.5 is not allowed"),
+    (lambda w: R.Aminus_quadrature(0.5, [0.3, 0.4], "blinn"), r"beta must be a scalar"),
+    (lambda w: R.Aminus_quadrature(0.5, 1.6, "blinn"), r"beta=1.6 is out of range"),
 ])
 def test_bad_input_raises_value_error_naming_what_is_allowed(call, match):
     w = np.array([0.0, 0.0, 1.0])

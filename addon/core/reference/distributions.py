@@ -298,8 +298,18 @@ def Aminus_quadrature(cos_theta, beta, distribution, nodes=LAMBDA_NODES):
     """Projected area of the back-facing facets, A-(theta) = cos(theta) Lambda(theta):
     the definition of Smith's Lambda for 'blinn' and 'gaussian'.
 
-    ``beta`` must be a scalar; ``cos_theta`` may be an array.
+    ``beta`` must be a scalar; ``cos_theta`` may be an array (clamped to
+    [0, 1]); ``nodes`` is the number of Gauss-Legendre nodes.  Raises
+    ValueError naming what is allowed otherwise.
     """
+    if distribution not in ("blinn", "gaussian"):
+        raise ValueError(f"distribution={distribution!r}; the quadrature is for 'blinn' and "
+                         "'gaussian' (the others have closed forms)")
+    if isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 1:
+        raise ValueError(f"nodes={nodes!r} is not allowed; nodes must be a positive integer")
+    if np.ndim(beta) != 0:
+        raise ValueError(f"beta must be a scalar here, not an array of shape {np.shape(beta)}")
+    _within(beta, "beta", 0.0, 0.5 * PI)
     cos_theta = np.clip(np.asarray(cos_theta, dtype=float), 0.0, 1.0)
     theta = np.arccos(cos_theta)[..., None]
     alpha0 = 0.5 * PI - theta
@@ -383,7 +393,17 @@ def Lambda_chebyshev(wx, wy, wz, beta, distribution):
     g = clenshaw(2.0 * np.clip(x, 0.0, 1.0) - 1.0, cx)
     with np.errstate(divide="ignore", invalid="ignore"):
         lam = np.maximum(g * (r * m) / wz, 0.0)  # the series wiggles by ~1e-10 near 0
-    return np.where(wz > 0.0, lam, np.inf)
+    lam = np.where(wz > 0.0, lam, np.inf)
+    outside = (beta < CHEB_BETA[0]) | (beta > CHEB_BETA[1])
+    if np.any(outside):
+        # Beyond the catalogue's range the series extrapolates (6 % off at
+        # beta 88 deg, ten times at 89.9): the quadrature it interpolates.
+        norm = np.sqrt(wx * wx + wy * wy + wz * wz)
+        for b in np.unique(beta[outside]):
+            sel = outside & (beta == b) & (wz > 0.0)
+            c = wz[sel] / norm[sel]
+            lam[sel] = Aminus_quadrature(c, float(b), distribution, nodes=96) / c
+    return lam
 
 
 def Lambda_table(wx, wy, wz, beta, distribution):
