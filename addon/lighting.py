@@ -377,7 +377,7 @@ def bind_lights(node, *lamps) -> None:
     lamps by light linking."""
     _check_node(node)
     _check_lamps(lamps)
-    unbind_lights(node)
+    _unbind(node)
     if light_count(node) != len(lamps):
         groups.switch_variant(node, **{variants.LIGHTS_PARAM.name: str(len(lamps))})
     for k, obj in enumerate(lamps, start=1):
@@ -390,11 +390,17 @@ def unbind_lights(node) -> None:
     light, and remove the light linking binding added (nothing else): the
     first light's inputs keep the lamp's last values."""
     _check_node(node)
+    _unbind(node)
+    sync_light_linking()
+
+
+def _unbind(node) -> None:
+    """:func:`unbind_lights` but for the light linking, which its callers
+    bring up to date once (the linking walks every hybrid node)."""
     for k in range(1, light_count(node) + 1):
         _remove_drivers(node, k)
     if light_count(node) != 1:
         groups.switch_variant(node, **{variants.LIGHTS_PARAM.name: "1"})
-    sync_light_linking()
 
 
 def bound_lights(node) -> list:
