@@ -196,8 +196,7 @@ def _upper_only(d, hz):
     """``d`` where the facet normal is above the surface (hz > 0), else 0:
     microfacets face outward, every D is normalised over the upper hemisphere.
     A NaN stays NaN."""
-    hz = np.asarray(hz)
-    return np.where(hz > 0.0, d, np.where(hz <= 0.0, 0.0, np.nan))
+    return np.where(np.asarray(hz) <= 0.0, 0.0, d)  # d is NaN where hz is
 
 
 def D_blinn(hx, hy, hz, beta):

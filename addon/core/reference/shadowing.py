@@ -20,10 +20,10 @@ def G_vgroove(ci, co, ch, cih):
     Arguments are cosines: N.L, N.E, N.H, L.H; negative ones count as 0.  G
     is in [0, 1]: 0 where a cosine of the numerator is 0, 1 where L.H is 0 and
     the numerator is not (the limit); a NaN gives NaN."""
-    ci, co, ch, cih = (np.maximum(np.asarray(x, dtype=float), 0.0) for x in (ci, co, ch, cih))
-    num = 2.0 * ch * np.minimum(ci, co)
+    num = 2.0 * np.maximum(ch, 0.0) * np.maximum(np.minimum(ci, co), 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(num > 0.0, np.minimum(1.0, num / cih), 0.0 * num)  # NaN stays NaN
+        g = np.minimum(1.0, num / np.maximum(cih, 0.0))
+    return np.where(num > 0.0, g, 0.0 * num)  # NaN stays NaN
 
 
 def S_smith_1967(wx, wy, wz, ax, ay):
