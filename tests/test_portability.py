@@ -10,7 +10,8 @@
   renders must be bit-identical.  The node groups hold internal Script nodes
   (OSL source in Text datablocks), so nothing of the extension is needed.
   Both with Open Shading Language on (the groups' OSL shaders) and off
-  (their native nodes: Cycles drops Script nodes, and the groups switch).
+  (their native nodes: Cycles drops Script nodes, and the groups switch),
+  and in EEVEE (the native nodes too).
 - With OSL off every group renders and nothing warns; a node forced to the
   OSL backend renders black there, and the extension's load and render
   handlers log a clear warning instead of leaving it silent.  (Without the
@@ -67,16 +68,19 @@ def build_every_model(bpy, api, name="portability"):
     return g, cases
 
 
-@pytest.mark.parametrize("osl", [True, False], ids=["osl_on", "osl_off"])
+@pytest.mark.parametrize("osl", [True, False, "eevee"], ids=["osl_on", "osl_off", "eevee"])
 def test_saved_file_renders_identically_without_the_extension(bpy, installed_extension,
                                                               tmp_path, osl):
-    """With OSL on the groups render their OSL shaders, with it off their
-    native nodes; either way the saved file renders bit-identically in a
-    Blender without the extension."""
+    """With OSL on the groups render their OSL shaders, with it off and in
+    EEVEE their native nodes; either way the saved file renders
+    bit-identically in a Blender without the extension."""
     api = _ext(installed_extension, "api")
     g, cases = build_every_model(bpy, api, name=f"portability_{osl}")
-    g.scene.cycles.shading_system = osl
-    assert api.rendering_backend(g.scene)[0] == ("osl" if osl else "native")
+    if osl == "eevee":
+        common.configure_eevee(g.scene)
+    else:
+        g.scene.cycles.shading_system = osl
+    assert api.rendering_backend(g.scene)[0] == ("osl" if osl is True else "native")
     here = g.render(str(tmp_path / "authoring.exr"))
     assert np.isfinite(here).all()
     # the comparison is not black on black
