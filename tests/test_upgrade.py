@@ -43,17 +43,21 @@ def _snapshot(bpy, groups):
     return out
 
 
+def _path_key(groups, node, path):
+    """The socket key of an F-curve path naming an input of ``node`` by index."""
+    inner = path.split(".inputs[")[1].split("]")[0]
+    if inner.startswith('"'):  # by identifier: not as the extension leaves paths
+        return "identifier " + inner
+    return groups.socket_key(node, node.inputs[int(inner)])
+
+
 def _resolve_paths(bpy, snap, groups):
     """Driver and keyframe paths name socket indices: turn them into keys."""
     for name, entry in snap.items():
         node = bpy.data.materials[name].node_tree.nodes["RM"]
-        def key(path):
-            inner = path.split(".inputs[")[1].split("]")[0]
-            if inner.startswith('"'):  # by identifier: not as the extension leaves paths
-                return "identifier " + inner
-            return groups.socket_key(node, node.inputs[int(inner)])
-        entry["drivers"] = sorted((key(p), i, e) for p, i, e in entry["drivers"])
-        entry["keys"] = sorted((key(p), k) for p, k in entry["keys"])
+        entry["drivers"] = sorted((_path_key(groups, node, p), i, e)
+                                  for p, i, e in entry["drivers"])
+        entry["keys"] = sorted((_path_key(groups, node, p), k) for p, k in entry["keys"])
     return snap
 
 
@@ -121,9 +125,8 @@ def _state(bpy, groups, api):
         entry["feeds"] = sorted((link.from_socket.name, link.to_node.bl_idname)
                                 for link in tree.links if link.from_node == node)
         entry["variables"] = sorted(
-            (fc.data_path.split("]")[1] if "]" in fc.data_path else fc.data_path,
-             fc.array_index, v.name, v.type, t.id.name if t.id else None, t.data_path,
-             t.transform_type)
+            (_path_key(groups, node, fc.data_path), fc.array_index, v.name, v.type,
+             t.id.name if t.id else None, t.data_path, t.transform_type)
             for fc in tree.animation_data.drivers for v in fc.driver.variables
             for t in v.targets) if tree.animation_data else []
         del entry["group"]  # an upgrade keeps the group, a name may say its version
@@ -161,9 +164,9 @@ def _render_both(bpy, scene):
 def test_a_file_of_nodes_version_21_upgrades_keeping_everything(bpy, installed_extension):
     """tests/data/groups_v21_5.2.blend and groups_v21_4.5.blend (made by
     tests/data/make_groups_v21.py with the extension at b390546 in bpy 5.2.4
-    and 4.5.15; each Blender opens its own): every mode, backend and lamp type, one to three
-    lamps bound, links, drivers and keyframes on inputs before and after the
-    Light inputs.  An upgrade keeps all of it, the lamps' light linking
+    and 4.5.15; each Blender opens its own): every mode, backend and lamp
+    type, one to three lamps bound, links, drivers and keyframes on inputs
+    before and after the Light inputs.  An upgrade keeps all of it, the lamps' light linking
     too, and exact mode renders as before, with OSL and natively."""
     groups = importlib.import_module(installed_extension + ".groups")
     api = importlib.import_module(installed_extension + ".api")
