@@ -68,19 +68,19 @@ def build_every_model(bpy, api, name="portability"):
     return g, cases
 
 
-@pytest.mark.parametrize("osl", [True, False, "eevee"], ids=["osl_on", "osl_off", "eevee"])
+@pytest.mark.parametrize("engine", ["osl_on", "osl_off", "eevee"])
 def test_saved_file_renders_identically_without_the_extension(bpy, installed_extension,
-                                                              tmp_path, osl):
+                                                              tmp_path, engine):
     """With OSL on the groups render their OSL shaders, with it off and in
     EEVEE their native nodes; either way the saved file renders
     bit-identically in a Blender without the extension."""
     api = _ext(installed_extension, "api")
-    g, cases = build_every_model(bpy, api, name=f"portability_{osl}")
-    if osl == "eevee":
+    g, cases = build_every_model(bpy, api, name=f"portability_{engine}")
+    if engine == "eevee":
         common.configure_eevee(g.scene)
     else:
-        g.scene.cycles.shading_system = osl
-    assert api.rendering_backend(g.scene)[0] == ("osl" if osl is True else "native")
+        g.scene.cycles.shading_system = engine == "osl_on"
+    assert api.rendering_backend(g.scene)[0] == ("osl" if engine == "osl_on" else "native")
     here = g.render(str(tmp_path / "authoring.exr"))
     assert np.isfinite(here).all()
     # the comparison is not black on black

@@ -142,21 +142,15 @@ def _state(bpy, groups, api):
     return snap, linking
 
 
-def _render_both(bpy, scene):
-    """The scene with OSL on and off: 120 px, 1 sample (exact mode is then
-    the same pixel for pixel from one render to the next)."""
-    scene.render.engine = "CYCLES"
-    scene.cycles.device, scene.cycles.samples, scene.cycles.seed = "CPU", 1, 3
-    scene.cycles.use_denoising = False
-    scene.render.resolution_x = scene.render.resolution_y = 120
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    scene.render.use_persistent_data = False
+def _render_both(scene):
+    """The scene with OSL off and on: 120 px, 1 sample, linear float output
+    (exact mode is then the same pixel for pixel from one render to the next).
+    OSL is left on: the file has nodes forced to OSL, which with OSL off
+    make the render handler warn in the tests that come after."""
+    harness.set_linear_exr_output(scene, (120, 120))
     images = {}
-    for osl in (True, False):
-        scene.cycles.shading_system = osl
+    for osl in (False, True):
+        harness.configure_cycles(scene, osl=osl, seed=3)
         images[osl] = harness.render_image(scene, "upgrade_v21_")[0].astype(np.float64)
     return images
 
@@ -180,7 +174,7 @@ def test_a_file_of_nodes_version_21_upgrades_keeping_everything(bpy, installed_e
     assert all(e["links"] or e["drivers"] or e["keys"] for e in before.values())
     assert linking  # the hybrid nodes' lamps have receivers
     scene = bpy.context.scene
-    old = _render_both(bpy, scene)
+    old = _render_both(scene)
 
     for tree in outdated:
         groups.upgrade_group(tree)
@@ -190,7 +184,7 @@ def test_a_file_of_nodes_version_21_upgrades_keeping_everything(bpy, installed_e
     assert after == before
     assert linking_after == linking
 
-    new = _render_both(bpy, scene)
+    new = _render_both(scene)
     for osl, img in new.items():
         assert np.isfinite(img).all() and np.isfinite(old[osl]).all()
         for i in EXACT_V21:
