@@ -272,13 +272,16 @@ def light_drivers(node) -> list:
     anim = node.id_data.animation_data
     if anim is None:
         return []
+    sockets = groups.input_sockets(node)
     paths = {s.path_from_id("default_value")
-             for k in range(1, light_count(node) + 1) for s in _light_sockets(node, k)}
+             for k in range(1, light_count(node) + 1) for s in _light_sockets(node, k, sockets)}
     return [fc for fc in anim.drivers if fc.data_path in paths]
 
 
-def _remove_drivers(node, k):
-    for socket in _light_sockets(node, k):
+def _remove_drivers(node, k, sockets=None):
+    """Remove the drivers of light k's inputs; ``sockets``:
+    :func:`groups.input_sockets`, read here if None."""
+    for socket in _light_sockets(node, k, sockets):
         size = len(socket.default_value) if hasattr(socket.default_value, "__len__") else 0
         if size:
             for i in range(size):
@@ -397,8 +400,9 @@ def unbind_lights(node) -> None:
 def _unbind(node) -> None:
     """:func:`unbind_lights` but for the light linking, which its callers
     bring up to date once (the linking walks every hybrid node)."""
+    sockets = groups.input_sockets(node)
     for k in range(1, light_count(node) + 1):
-        _remove_drivers(node, k)
+        _remove_drivers(node, k, sockets)
     if light_count(node) != 1:
         groups.switch_variant(node, **{variants.LIGHTS_PARAM.name: "1"})
 
