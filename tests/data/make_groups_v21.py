@@ -31,7 +31,9 @@ from verification.harness import session  # noqa: E402  (the old version's)
 from verification.harness.package import build_zip  # noqa: E402
 
 bpy = session.prepare()
-api = importlib.import_module(session.install_extension(build_zip()) + ".api")
+extension = session.install_extension(build_zip())
+api = importlib.import_module(extension + ".api")
+socket = importlib.import_module(extension + ".groups").input_socket  # by parameter name
 
 # (model, mode, backend, lamps bound, parameters, input linked from a Value
 #  node, input with a driver, input with keyframes at frames 1 and 20)
@@ -51,17 +53,6 @@ NODES = (
     ("microfacet", "exact", "auto", ("Sun", "Point"),
      {"distribution": "beckmann", "shadowing": "smith_1967", "alpha": 0.3}, "ks", None, None),
 )
-
-
-def socket(node, name):
-    """The input of parameter ``name`` (its label in the catalogue)."""
-    for s in node.inputs:
-        if s.identifier and s.name.replace(" ", "_").lower() == name:
-            return s
-    labels = {"albedo": "Albedo", "exponent": "Exponent", "beta": "Half-Angle",
-              "alpha_x": "Roughness X", "alpha_y": "Roughness Y", "ior": "IOR",
-              "kd": "Diffuse", "ks": "Specular", "tangent_rotation": "Tangent Rotation"}
-    return next(s for s in node.inputs if s.name == labels[name])
 
 
 def lamp(scene, kind, name, location, rotation, energy):
