@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from .. import catalogue
+from .ranges import within as _within
 from .special import SQRT_PI, clenshaw, erfc, gauss_legendre
 
 PI = math.pi
@@ -37,20 +38,6 @@ LN2 = math.log(2.0)
 # --------------------------------------------------------------------------
 # beta, D(beta) = D(0)/2, and the native widths
 # --------------------------------------------------------------------------
-
-def _within(x, name, lo, hi=math.inf):
-    """``x`` as a float array, every element finite and in (lo, hi); else
-    ValueError naming the allowed values (numpy alone would give NaN, or for
-    an angle past pi a width that repeats with the period of cos)."""
-    arr = np.asarray(x, dtype=float)
-    ok = np.isfinite(arr) & (arr > lo) & (arr < hi)
-    if not np.all(ok):
-        bad = float(arr[~ok].ravel()[0]) if arr.ndim else float(arr)
-        upper = "inf" if hi == math.inf else ("pi/2" if hi == 0.5 * PI else f"{hi:.6g}")
-        raise ValueError(f"{name}={bad!r} is out of range; {name} must be a finite number in "
-                         f"({lo:g}, {upper})")
-    return arr
-
 
 # the Gaussian c2 whose beta is pi/2: smaller ones put D's half beyond the hemisphere
 GAUSSIAN_C2_MIN = math.sqrt(LN2) / (0.5 * PI)

@@ -6,18 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-
-def _index(x, name, positive):
-    """An index part as a float array: finite and above 0 (``positive``) or
-    at least 0, else ValueError naming the range (the formulas hold only
-    their squares: a negative index would pass as its absolute value)."""
-    arr = np.asarray(x, dtype=float)
-    ok = np.isfinite(arr) & ((arr > 0.0) if positive else (arr >= 0.0))
-    if not np.all(ok):
-        bad = float(arr[~ok].ravel()[0]) if arr.ndim else float(arr)
-        raise ValueError(f"{name}={bad!r} is out of range; {name} must be a finite number "
-                         f"{'above' if positive else 'at least'} 0")
-    return arr
+from .ranges import within
 
 
 def _cosine(c):
@@ -32,7 +21,7 @@ def F_dielectric(c, ior):
 
     ``c`` is the cosine of the angle of incidence, clamped to [0, 1]; ``ior``
     must be finite and above 0 (ValueError otherwise)."""
-    c, ior = _cosine(c), _index(ior, "ior", True)
+    c, ior = _cosine(c), within(ior, "ior", 0.0)
     g2 = ior * ior - 1.0 + c * c
     g = np.sqrt(np.maximum(g2, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -47,7 +36,8 @@ def F_conductor(c, n, k):
 
     ``c`` is the cosine of the angle of incidence, clamped to [0, 1]; ``n``
     and ``k`` must be finite and at least 0 (ValueError otherwise)."""
-    c, n, k = _cosine(c), _index(n, "n", False), _index(k, "k", False)
+    c = _cosine(c)
+    n, k = within(n, "n", 0.0, lo_closed=True), within(k, "k", 0.0, lo_closed=True)
     c2 = c * c
     s2 = 1.0 - c2
     t0 = (n * n - k * k - 1.0) + c2  # n^2 - k^2 - sin^2: 1 - c2 lost c2 near grazing
