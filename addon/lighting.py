@@ -421,7 +421,7 @@ def outdated_bindings(node, bound=None, driver_of=None) -> list:
     :func:`_driver_lookup` of ``node``, read here if None."""
     driver_of = _driver_lookup(node) if driver_of is None else driver_of
     out = []
-    for k, lamp in _bound_by_light(node) if bound is None else bound:
+    for k, lamp in _bound_by_light(node, driver_of=driver_of) if bound is None else bound:
         strength = driver_of("light_strength", k)
         if driver_of("shadows", k) is None or strength is None \
                 or HIDDEN not in {v.name for v in strength.variables}:
@@ -505,14 +505,15 @@ def unrendered_lamps(node, layer) -> list:
     (:func:`collection_paths`, bound as they are now), not a lamp in
     another scene only, nor one :func:`collection_paths` cannot follow
     (the sidebar names these)."""
-    out, parents = [], None
-    for k, lamp in _bound_by_light(node):
+    out, parents, driver_of = [], None, _driver_lookup(node)
+    for k, lamp in _bound_by_light(node, driver_of=driver_of):
         if lamp.hide_render or _renders_in(lamp, layer):
             continue
         parents = _collection_parents() if parents is None else parents
         ways = collection_paths(lamp, parents)
         _factor, collections, switches = collection_factor(ways)
-        followed = ways is not None and _strength_reads(node, k)[:2] == (collections, switches) \
+        reads = _strength_reads(node, k, driver_of("light_strength", k))
+        followed = ways is not None and reads[:2] == (collections, switches) \
             and all(any(c.hide_render for c in chain) or _excluded_in(layer, chain)
                     for chain in ways)
         if not followed:
@@ -521,19 +522,23 @@ def unrendered_lamps(node, layer) -> list:
 
 
 def _driver_lookup(node, sockets=None):
-    """A function ``(name, k)`` -> the driver of light k's input ``name``
-    of ``node`` (of its first component), or None: the node's sockets
-    (``sockets``: :func:`groups.input_sockets`, read here if None) and the
-    material's drivers read once, for many lookups."""
+    """A function ``(name, k, every=False)`` -> the driver of light k's
+    input ``name`` of ``node`` (of its first component), or None; with
+    ``every``, the drivers of all its components, by component.  The
+    node's sockets (``sockets``: :func:`groups.input_sockets`, read here
+    if None) and the material's drivers read once, for many lookups."""
     anim = node.id_data.animation_data
-    drivers = {}
+    curves = {}
     for fc in (anim.drivers if anim else ()):
-        drivers.setdefault(fc.data_path, fc.driver)
+        curves.setdefault(fc.data_path, []).append(fc)
     sockets = groups.input_sockets(node) if sockets is None else sockets
 
-    def lookup(name, k):
+    def lookup(name, k, every=False):
         socket = sockets.get(socket_name(name, k))
-        return drivers.get(socket.path_from_id("default_value")) if socket else None
+        found = curves.get(socket.path_from_id("default_value"), ()) if socket else ()
+        if every:
+            return [fc.driver for fc in sorted(found, key=lambda fc: fc.array_index)]
+        return found[0].driver if found else None
     return lookup
 
 
@@ -675,8 +680,8 @@ def moved_lamp_lights(node, parents=None, bound=None, sockets=None, factors=None
     ``factors``: a dict in which a lamp's :func:`collection_factor` is kept
     for the next call (by the lamp's pointer), or None."""
     sockets = groups.input_sockets(node) if sockets is None else sockets
-    bound = _bound_by_light(node, sockets) if bound is None else bound
     driver_of = _driver_lookup(node, sockets)
+    bound = _bound_by_light(node, sockets, driver_of) if bound is None else bound
     outdated, out = set(outdated_bindings(node, bound, driver_of)), []
     parents = _collection_parents() if parents is None else parents
     factors = {} if factors is None else factors
@@ -724,29 +729,20 @@ def _places_lamp(var) -> bool:
         var.type == 'SINGLE_PROP' and var.targets[0].data_path.startswith(LAMP_MATRIX))
 
 
-def _lamp_targets(node, sockets=None) -> dict:
+def _lamp_targets(node, sockets=None, driver_of=None) -> dict:
     """Light k -> the objects the variables of its drivers read the place of
     (:func:`_places_lamp`; None where that object was deleted), for each
     light of ``node``: the drivers of its Light Direction and Light
     Position, the inputs binding drives from where the lamp is (every
     version's binding: no other input's driver reads it).  ``sockets``:
-    :func:`groups.input_sockets`, read here if None."""
-    anim = node.id_data.animation_data
-    drivers = anim.drivers if anim else None
-    sockets = groups.input_sockets(node) if sockets is None else sockets
+    :func:`groups.input_sockets`, and ``driver_of``: :func:`_driver_lookup`
+    of ``node``, read here if None."""
+    driver_of = _driver_lookup(node, sockets) if driver_of is None else driver_of
     out = {}
     for k in range(1, light_count(node) + 1):
-        out[k] = []
-        for name in PLACE_INPUTS:
-            socket = sockets.get(socket_name(name, k))
-            if socket is None or drivers is None:
-                continue
-            path = socket.path_from_id("default_value")
-            for i in range(len(socket.default_value)):
-                fc = drivers.find(path, index=i)
-                if fc is not None:
-                    out[k] += [var.targets[0].id for var in fc.driver.variables
-                               if _places_lamp(var)]
+        out[k] = [var.targets[0].id for name in PLACE_INPUTS
+                  for driver in driver_of(name, k, every=True)
+                  for var in driver.variables if _places_lamp(var)]
     return out
 
 
@@ -759,11 +755,12 @@ def _euler_direction(node, k, driver_of=None) -> bool:
     return driver is not None and any(var.type == 'TRANSFORMS' for var in driver.variables)
 
 
-def _bound_by_light(node, sockets=None) -> list:
+def _bound_by_light(node, sockets=None, driver_of=None) -> list:
     """``(k, lamp object)`` for each light k of ``node`` that follows a lamp;
-    ``sockets``: :func:`groups.input_sockets`, read here if None."""
+    ``sockets``: :func:`groups.input_sockets`, and ``driver_of``:
+    :func:`_driver_lookup` of ``node``, read here if None."""
     out = []
-    for k, targets in _lamp_targets(node, sockets).items():
+    for k, targets in _lamp_targets(node, sockets, driver_of).items():
         found = next((t for t in targets if t is not None), None)
         if found is not None:
             out.append((k, found))
