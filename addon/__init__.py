@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Reflection Models: the classic reflection models of CS348B Lecture 11 as
-Cycles shader nodes.
+shader nodes for Cycles and EEVEE.
 
 The package has two layers.  ``catalogue`` and ``reference`` need numpy only
 (no ``bpy``); everything that touches Blender lives in modules imported lazily

@@ -355,7 +355,8 @@ class NODE_OT_rm_upgrade_groups(bpy.types.Operator):
 class NODE_MT_rm_add(bpy.types.Menu):
     bl_idname = "NODE_MT_rm_add"
     bl_label = "Reflection Models"
-    bl_description = "Classic reflection models as OSL shader node groups"
+    bl_description = ("Classic reflection models as node groups: Open Shading Language where "
+                      "it runs, native nodes elsewhere (every Cycles device, EEVEE)")
 
     def draw(self, _context):
         layout = self.layout
