@@ -68,9 +68,22 @@ def test_path_traced_status_per_version_and_backend():
     assert gold.path_traced_status((4, 5)) == "approx"  # 4.5's conductor closure is approximate
     glass = by("microfacet[trowbridge_reitz/smith_correlated/dielectric 1.5]")
     assert glass.path_traced_status((4, 5)) == "exact"  # OSL: dielectric_bsdf
-    # the native nodes carry it through the Metallic node's conductor (k = 0)
+    # the native nodes carry it through the Metallic node's conductor (k = 0), which
+    # 4.5 approximates, but for a GGX lobe of one index and a grey weight: the
+    # Principled BSDF's specular layer
     assert glass.path_traced_status((5, 2), "native") == "exact"
-    assert glass.path_traced_status((4, 5), "native") == "approx"
+    assert glass.path_traced_status((4, 5), "native") == "exact"
+    for other in ({"ks": (0.9, 0.5, 0.2)}, {"ior": (1.3, 1.5, 1.7)},
+                  {"distribution": "beckmann"}, {"shadowing": "smith"}):
+        params = {**glass.params, **other}
+        case = cases_mod.Case("microfacet", params, "w")
+        assert case.path_traced_status((5, 2), "native") != "approx", other
+        assert case.path_traced_status((4, 5), "native") == "approx", other
+    # values not known (a linked socket): the weight may be coloured
+    from addon.core.formulas import models as formulas
+    variant = glass.enums
+    assert formulas.path_traced_status("microfacet", variant, None, (4, 5), "native") == "approx"
+    assert formulas.path_traced_status("microfacet", variant, None, (5, 2), "native") == "exact"
     # a closure is the model only as wide as Cycles lets it be (alpha <= 1)
     deg = math.pi / 180.0
     for backend in ("osl", "native"):
@@ -197,6 +210,24 @@ def _check_path_traced(r):
 @pytest.mark.parametrize("case", cases_mod.CASES, ids=_slug)
 def test_path_traced_mode(verify, api, case, backend):
     _check_path_traced(_run(verify, api, case, "path_traced", backend))
+
+
+@pytest.mark.parametrize("params", [
+    {"ior": 0.7, "alpha": 0.2},  # an index below 1: total internal reflection
+    {"ior": 2.4, "alpha_x": 0.05, "alpha_y": 0.3},
+    {"ior": 1.33, "alpha_x": 0.3, "alpha_y": 0.08}], ids=lambda p: str(p))
+def test_native_dielectric_ggx_lobe_is_exact(bpy, verify, api, params):
+    """Trowbridge-Reitz with correlated Smith and a dielectric's Fresnel, in
+    the native nodes: 5.2's Metallic BSDF at extinction 0, 4.5's Principled
+    BSDF specular layer (its Metallic BSDF's Fresnel is an older
+    approximation: 0.39 of the peak off at index 1.5), at indices and
+    anisotropies of both sides of 1 and of the tangent."""
+    case = cases_mod.Case("microfacet", {"distribution": "trowbridge_reitz",
+                                         "shadowing": "smith_correlated",
+                                         "fresnel": "dielectric", **params}, "native dielectric")
+    r = _run(verify, api, case, "path_traced", "svm")
+    assert r["status"] == "exact"
+    assert r["max_rel_error"] <= r["tolerance"]  # float32 (1e-3 leaves room)
 
 
 @pytest.mark.parametrize("backend", ["osl", "svm"])

@@ -19,9 +19,17 @@ def has_raycast() -> bool:
     return hasattr(bpy.types, "ShaderNodeRaycast")
 
 
+def has_exact_conductor() -> bool:
+    """Whether this Blender's Metallic BSDF (physical conductor) has the
+    exact complex-index Fresnel (5.2; 4.5's is an older approximation:
+    docs/compatibility.md)."""
+    import bpy
+    return tuple(bpy.app.version[:2]) >= (5, 2)
+
+
 def capabilities() -> dict:
     """The keyword arguments of :func:`.emit.plan` for this Blender."""
-    return {"raycast": has_raycast()}
+    return {"raycast": has_raycast(), "exact_conductor": has_exact_conductor()}
 
 
 def set_constant(socket, value) -> None:

@@ -79,8 +79,9 @@ GLOSSY = {"ggx": "GGX", "beckmann": "BECKMANN"}
 
 
 class Planner:
-    def __init__(self, raycast: bool = True):
+    def __init__(self, raycast: bool = True, exact_conductor: bool = True):
         self.raycast = raycast
+        self.exact_conductor = exact_conductor
         self.nodes: list[Node] = []
         self.memo: dict = {}
         self.separate: dict = {}
@@ -362,6 +363,22 @@ class Planner:
                                   GLOSSY[params["distribution"]])
         raise ValueError(f"no native closure {name!r}")
 
+    def _principled_dielectric(self, shape, ior):
+        """Where the Metallic BSDF's conductor Fresnel is an older
+        approximation (4.5: 2.1 of the peak off for a dielectric, k = 0,
+        measured), a GGX lobe with a dielectric's Fresnel of one real index
+        is the Principled BSDF's specular layer: base colour black, GGX
+        (single scattering), Specular IOR Level 0.5 (the index's own
+        Fresnel, exact: 5.7e-6 of the peak measured in 4.5.15), IOR the
+        red channel's (:meth:`_metallic` takes it only where the three are
+        equal).  Its Anisotropic and Anisotropic Rotation are the Metallic
+        BSDF's Anisotropy and Rotation."""
+        names = {"Anisotropy": "Anisotropic", "Rotation": "Anisotropic Rotation"}
+        inputs = {names.get(key, key): value for key, value in shape.items()}
+        return self.node("ShaderNodeBsdfPrincipled", {"distribution": "GGX"},
+                         {"Base Color": ("const", (0.0, 0.0, 0.0)), "Metallic": ("const", 0.0),
+                          "Specular IOR Level": ("const", 0.5), "IOR": ior, **inputs})
+
     def _metallic(self, w, n, t, ax, ay, ior, k, dist):
         """Metallic BSDF (physical conductor): roughness sqrt(sqrt(ax ay)),
         anisotropy 1 - (small/large)/0.9 ... clamped to a ratio of 10, and a
@@ -391,13 +408,31 @@ class Planner:
             fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
             return self.node("ShaderNodeMixShader", {}, {0: fac, 1: shader})
 
+        isep = [None]
+        dielectric = k[0] == "const" and not any(k[1] if isinstance(k[1], tuple) else (k[1],))
+
+        def whole():
+            """The lobe of the whole index (the grey part of the weight)."""
+            shader = metal(ior, k)
+            if self.exact_conductor or not dielectric or dist != "GGX":
+                return shader
+            # one index in every channel: the Principled BSDF's exact dielectric lobe
+            isep[0] = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+            ir, ig, ib = (("link", isep[0][1], i) for i in range(3))
+            same = self.math("MULTIPLY", self.node("ShaderNodeMath", {"operation": "COMPARE"},
+                                                   {0: ir, 1: ig, 2: ("const", 0.0)}),
+                             self.node("ShaderNodeMath", {"operation": "COMPARE"},
+                                       {0: ig, 1: ib, 2: ("const", 0.0)}))
+            return self.node("ShaderNodeMixShader", {},
+                             {0: same, 1: shader, 2: self._principled_dielectric(shape, ir)})
+
         if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
-            return scaled(metal(ior, k), ("const", w[1][0]))
+            return scaled(whole(), ("const", w[1][0]))
         sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
         wr, wg, wb = (("link", sep[1], i) for i in range(3))
         grey = self.math("MINIMUM", self.math("MINIMUM", wr, wg), wb)
-        total = scaled(metal(ior, k), grey)
-        isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+        total = scaled(whole(), grey)
+        isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior}) if isep[0] is None else isep[0]
         ksep = self.node("ShaderNodeSeparateXYZ", {}, {0: k})
         for i, wc in enumerate((wr, wg, wb)):
             only_ior = {j: (("link", isep[1], i) if j == i else ("const", 1.0)) for j in range(3)}
@@ -409,11 +444,12 @@ class Planner:
         return total
 
 
-def plan(outputs: dict, *, raycast: bool = True):
+def plan(outputs: dict, *, raycast: bool = True, exact_conductor: bool = True):
     """``(nodes, refs)``: the node plan of ``outputs`` (name -> Expr) and
     each output's source (``raycast``: whether the Blender that builds it
-    has the Raycast node, see :mod:`.build`)."""
-    p = Planner(raycast=raycast)
+    has the Raycast node; ``exact_conductor``: whether its Metallic BSDF's
+    physical conductor has the exact Fresnel; see :mod:`.build`)."""
+    p = Planner(raycast=raycast, exact_conductor=exact_conductor)
     refs = p.run(outputs)
     return _reachable(p.nodes, refs.values()), refs
 
