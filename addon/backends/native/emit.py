@@ -32,7 +32,10 @@ and power); the few that have no node are composed:
   sqrt(alpha), anisotropy from the ratio), Hair (reflection) with their
   colour as the weight; the Metallic BSDF (physical conductor) has no colour
   input, so its weight is a Mix Shader, and a coloured weight takes one
-  closure per channel (the others get n = 1, k = 0, where F = 0).
+  closure per channel (the others get n = 1, k = 0, where F = 0); a
+  dielectric is a conductor of k = 0, but in Blender 4.5 (an older
+  conductor Fresnel) a GGX lobe of one index is the Principled BSDF's
+  specular layer, exact, for the grey part of its weight.
 """
 
 from __future__ import annotations
