@@ -220,8 +220,8 @@ def test_native_dielectric_ggx_lobe_is_exact(bpy, verify, api, params):
     """Trowbridge-Reitz with correlated Smith and a dielectric's Fresnel, in
     the native nodes: 5.2's Metallic BSDF at extinction 0, 4.5's Principled
     BSDF specular layer (its Metallic BSDF's Fresnel is an older
-    approximation: 0.39 of the peak off at index 1.5), at indices and
-    anisotropies of both sides of 1 and of the tangent."""
+    approximation: 0.39 of the peak off at index 1.5), at indices below and
+    above 1 and lobes stretched along and across the tangent."""
     case = cases_mod.Case("microfacet", {"distribution": "trowbridge_reitz",
                                          "shadowing": "smith_correlated",
                                          "fresnel": "dielectric", **params}, "native dielectric")
