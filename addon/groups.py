@@ -85,9 +85,10 @@ NODES_VERSION = 23  # 2: a closure-only shader feeds the BSDF output;
 #    Fresnel n^2 - k^2 - sin^2 as n^2 - k^2 - 1 + c^2 (1 - c^2 lost c^2);
 #    Kajiya-Kay's sines as |T x w| (sqrt(1 - cos^2) erred near the fibre)
 # 23: in Blender 4.5 the native BSDF output's GGX lobes with a dielectric's
-#    Fresnel are the Principled BSDF's specular layer (exact) where the index
-#    is one number (the Metallic BSDF's conductor Fresnel at k = 0, an older
-#    approximation there, was 2.1 of the peak off); 5.2's graphs as before
+#    Fresnel are the Principled BSDF's specular layer (exact; a coloured
+#    weight the tint of a coat of index 1) where the index is one number (the
+#    Metallic BSDF's conductor Fresnel at k = 0, an older approximation
+#    there, was 2.1 of the peak off); 5.2's graphs as before
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

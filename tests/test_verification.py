@@ -69,12 +69,14 @@ def test_path_traced_status_per_version_and_backend():
     glass = by("microfacet[trowbridge_reitz/smith_correlated/dielectric 1.5]")
     assert glass.path_traced_status((4, 5)) == "exact"  # OSL: dielectric_bsdf
     # the native nodes carry it through the Metallic node's conductor (k = 0), which
-    # 4.5 approximates, but for a GGX lobe of one index and a grey weight: the
-    # Principled BSDF's specular layer
+    # 4.5 approximates, but for a GGX lobe of one index: the Principled BSDF's
+    # specular layer (a coloured Specular its coat's tint)
     assert glass.path_traced_status((5, 2), "native") == "exact"
     assert glass.path_traced_status((4, 5), "native") == "exact"
-    for other in ({"ks": (0.9, 0.5, 0.2)}, {"ior": (1.3, 1.5, 1.7)},
-                  {"distribution": "beckmann"}, {"shadowing": "smith"}):
+    tinted = cases_mod.Case("microfacet", {**glass.params, "ks": (0.9, 0.5, 0.2)}, "w")
+    assert tinted.path_traced_status((4, 5), "native") == "exact"
+    for other in ({"ior": (1.3, 1.5, 1.7)}, {"distribution": "beckmann"},
+                  {"shadowing": "smith"}):
         params = {**glass.params, **other}
         case = cases_mod.Case("microfacet", params, "w")
         assert case.path_traced_status((5, 2), "native") != "approx", other
@@ -215,13 +217,16 @@ def test_path_traced_mode(verify, api, case, backend):
 @pytest.mark.parametrize("params", [
     {"ior": 0.7, "alpha": 0.2},  # an index below 1: total internal reflection
     {"ior": 2.4, "alpha_x": 0.05, "alpha_y": 0.3},
-    {"ior": 1.33, "alpha_x": 0.3, "alpha_y": 0.08}], ids=lambda p: str(p))
+    {"ior": 1.33, "alpha_x": 0.3, "alpha_y": 0.08},
+    {"ior": 1.5, "alpha": 0.3, "ks": (0.9, 0.5, 0.2)},  # a coloured Specular
+    {"ior": 1.3, "alpha": 0.1, "ks": (0.2, 1.0, 0.05)}], ids=lambda p: str(p))
 def test_native_dielectric_ggx_lobe_is_exact(bpy, verify, api, params):
     """Trowbridge-Reitz with correlated Smith and a dielectric's Fresnel, in
     the native nodes: 5.2's Metallic BSDF at extinction 0, 4.5's Principled
     BSDF specular layer (its Metallic BSDF's Fresnel is an older
     approximation: 0.39 of the peak off at index 1.5), at indices below and
-    above 1 and lobes stretched along and across the tangent."""
+    above 1, lobes stretched along and across the tangent, and coloured
+    Specular (in 4.5 the tint of a coat that reflects nothing)."""
     case = cases_mod.Case("microfacet", {"distribution": "trowbridge_reitz",
                                          "shadowing": "smith_correlated",
                                          "fresnel": "dielectric", **params}, "native dielectric")

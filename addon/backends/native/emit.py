@@ -35,7 +35,7 @@ and power); the few that have no node are composed:
   closure per channel (the others get n = 1, k = 0, where F = 0); a
   dielectric is a conductor of k = 0, but in Blender 4.5 (an older
   conductor Fresnel) a GGX lobe of one index is the Principled BSDF's
-  specular layer, exact, for the grey part of its weight.
+  specular layer, exact, its weight's colour the tint of a coat of index 1.
 """
 
 from __future__ import annotations
@@ -366,7 +366,7 @@ class Planner:
                                   GLOSSY[params["distribution"]])
         raise ValueError(f"no native closure {name!r}")
 
-    def _principled_dielectric(self, shape, ior):
+    def _principled_dielectric(self, w, n, shape, ior, scaled):
         """Where the Metallic BSDF's conductor Fresnel is an older
         approximation (4.5: 2.1 of the peak off for a dielectric, k = 0,
         measured), a GGX lobe with a dielectric's Fresnel of one real index
@@ -374,13 +374,34 @@ class Planner:
         (single scattering), Specular IOR Level 0.5 (the index's own
         Fresnel, exact: 5.7e-6 of the peak measured in 4.5.15), IOR the
         red channel's (:meth:`_metallic` takes it only where the three are
-        equal).  Its Anisotropic and Anisotropic Rotation are the Metallic
-        BSDF's Anisotropy and Rotation."""
+        equal); its Anisotropic and Anisotropic Rotation are the Metallic
+        BSDF's Anisotropy and Rotation.  Weighted by ``scaled`` (a Mix
+        Shader) with the largest channel of ``w``; a coloured ``w`` is the
+        tint of a coat of index 1 (which reflects nothing), whose tint t
+        Cycles applies to the layers under it as t^(1/|cos|), |cos| its
+        normal's with the view: a tint of (w / max w)^|N.I| is w / max w
+        (2.3e-5 of the peak measured in 4.5.15, colours (0.9, 0.5, 0.2),
+        (0.2, 1, 0.05), (0.7, 0.7, 0.3), views to 75 deg)."""
         names = {"Anisotropy": "Anisotropic", "Rotation": "Anisotropic Rotation"}
         inputs = {names.get(key, key): value for key, value in shape.items()}
-        return self.node("ShaderNodeBsdfPrincipled", {"distribution": "GGX"},
-                         {"Base Color": ("const", (0.0, 0.0, 0.0)), "Metallic": ("const", 0.0),
-                          "Specular IOR Level": ("const", 0.5), "IOR": ior, **inputs})
+        if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
+            size = ("const", w[1][0])
+        else:
+            sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
+            channels = [("link", sep[1], i) for i in range(3)]
+            size = self.math("MAXIMUM", self.math("MAXIMUM", channels[0], channels[1]),
+                             channels[2])
+            cos = self.math("ABSOLUTE", self.vmath("DOT_PRODUCT", n, ("geometry", "I")))
+            tint = self.node("ShaderNodeCombineXYZ", {}, {
+                i: self.math("POWER", self.math("DIVIDE", c, size), cos)
+                for i, c in enumerate(channels)})
+            inputs.update({"Coat Weight": ("const", 1.0), "Coat IOR": ("const", 1.0),
+                           "Coat Tint": tint, "Coat Normal": n})
+        shader = self.node("ShaderNodeBsdfPrincipled", {"distribution": "GGX"},
+                           {"Base Color": ("const", (0.0, 0.0, 0.0)),
+                            "Metallic": ("const", 0.0), "Specular IOR Level": ("const", 0.5),
+                            "IOR": ior, **inputs})
+        return scaled(shader, size)
 
     def _metallic(self, w, n, t, ax, ay, ior, k, dist):
         """Metallic BSDF (physical conductor): roughness sqrt(sqrt(ax ay)),
@@ -411,40 +432,41 @@ class Planner:
             fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
             return self.node("ShaderNodeMixShader", {}, {0: fac, 1: shader})
 
-        isep = [None]
+        def metallic():
+            """The Metallic BSDF's lobes: the grey part of the weight on one,
+            each channel's excess over it on one of that channel only."""
+            if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
+                return scaled(metal(ior, k), ("const", w[1][0]))
+            sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
+            wr, wg, wb = (("link", sep[1], i) for i in range(3))
+            grey = self.math("MINIMUM", self.math("MINIMUM", wr, wg), wb)
+            total = scaled(metal(ior, k), grey)
+            isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+            ksep = self.node("ShaderNodeSeparateXYZ", {}, {0: k})
+            for i, wc in enumerate((wr, wg, wb)):
+                only_ior = {j: (("link", isep[1], i) if j == i else ("const", 1.0))
+                            for j in range(3)}
+                only_k = {j: (("link", ksep[1], i) if j == i else ("const", 0.0))
+                          for j in range(3)}
+                one = metal(self.node("ShaderNodeCombineXYZ", {}, only_ior),
+                            self.node("ShaderNodeCombineXYZ", {}, only_k))
+                part = scaled(one, self.math("SUBTRACT", wc, grey))
+                total = self.node("ShaderNodeAddShader", {}, {0: total, 1: part})
+            return total
+
         dielectric = k[0] == "const" and not any(k[1] if isinstance(k[1], tuple) else (k[1],))
-
-        def whole():
-            """The lobe of the whole index (the grey part of the weight)."""
-            shader = metal(ior, k)
-            if self.exact_conductor or not dielectric or dist != "GGX":
-                return shader
-            # one index in every channel: the Principled BSDF's exact dielectric lobe
-            isep[0] = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
-            ir, ig, ib = (("link", isep[0][1], i) for i in range(3))
-            same = self.math("MULTIPLY", self.node("ShaderNodeMath", {"operation": "COMPARE"},
-                                                   {0: ir, 1: ig, 2: ("const", 0.0)}),
-                             self.node("ShaderNodeMath", {"operation": "COMPARE"},
-                                       {0: ig, 1: ib, 2: ("const", 0.0)}))
-            return self.node("ShaderNodeMixShader", {},
-                             {0: same, 1: shader, 2: self._principled_dielectric(shape, ir)})
-
-        if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
-            return scaled(whole(), ("const", w[1][0]))
-        sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
-        wr, wg, wb = (("link", sep[1], i) for i in range(3))
-        grey = self.math("MINIMUM", self.math("MINIMUM", wr, wg), wb)
-        total = scaled(whole(), grey)
-        isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior}) if isep[0] is None else isep[0]
-        ksep = self.node("ShaderNodeSeparateXYZ", {}, {0: k})
-        for i, wc in enumerate((wr, wg, wb)):
-            only_ior = {j: (("link", isep[1], i) if j == i else ("const", 1.0)) for j in range(3)}
-            only_k = {j: (("link", ksep[1], i) if j == i else ("const", 0.0)) for j in range(3)}
-            one = metal(self.node("ShaderNodeCombineXYZ", {}, only_ior),
-                        self.node("ShaderNodeCombineXYZ", {}, only_k))
-            part = scaled(one, self.math("SUBTRACT", wc, grey))
-            total = self.node("ShaderNodeAddShader", {}, {0: total, 1: part})
-        return total
+        if self.exact_conductor or not dielectric or dist != "GGX":
+            return metallic()
+        # one index in every channel: the Principled BSDF's exact dielectric lobe
+        isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+        ir, ig, ib = (("link", isep[1], i) for i in range(3))
+        same = self.math("MULTIPLY", self.node("ShaderNodeMath", {"operation": "COMPARE"},
+                                               {0: ir, 1: ig, 2: ("const", 0.0)}),
+                         self.node("ShaderNodeMath", {"operation": "COMPARE"},
+                                   {0: ig, 1: ib, 2: ("const", 0.0)}))
+        return self.node("ShaderNodeMixShader", {},
+                         {0: same, 1: metallic(),
+                          2: self._principled_dielectric(w, n, shape, ir, scaled)})
 
 
 def plan(outputs: dict, *, raycast: bool = True, exact_conductor: bool = True):
