@@ -409,7 +409,9 @@ class Planner:
         quarter turn of the tangent when ax < ay (its anisotropy only
         stretches along the tangent).  Weighted by Mix Shaders: the grey
         part of the weight on one closure, what each channel has beyond it on
-        a closure of that channel only."""
+        a closure of that channel only.  Where this Blender's conductor
+        Fresnel is an older approximation (4.5), a dielectric's GGX lobe of
+        one index is :meth:`_principled_dielectric` instead."""
         if t is None:  # isotropic (``ax`` is ``ay``): no anisotropy, no tangent
             shape = {"Roughness": self.math("SQRT", ax), "Normal": n}
         else:
