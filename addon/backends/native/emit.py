@@ -366,6 +366,13 @@ class Planner:
                                   GLOSSY[params["distribution"]])
         raise ValueError(f"no native closure {name!r}")
 
+    @staticmethod
+    def _grey(w):
+        """The value of a weight that is one constant grey, else None."""
+        if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
+            return ("const", w[1][0])
+        return None
+
     def _principled_dielectric(self, w, n, shape, ior, scaled):
         """Where the Metallic BSDF's conductor Fresnel is an older
         approximation (4.5: 2.1 of the peak off for a dielectric, k = 0,
@@ -384,9 +391,8 @@ class Planner:
         (0.2, 1, 0.05), (0.7, 0.7, 0.3), views to 75 deg)."""
         names = {"Anisotropy": "Anisotropic", "Rotation": "Anisotropic Rotation"}
         inputs = {names.get(key, key): value for key, value in shape.items()}
-        if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
-            size = ("const", w[1][0])
-        else:
+        size = self._grey(w)
+        if size is None:
             sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
             channels = [("link", sep[1], i) for i in range(3)]
             size = self.math("MAXIMUM", self.math("MAXIMUM", channels[0], channels[1]),
@@ -434,16 +440,18 @@ class Planner:
             fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
             return self.node("ShaderNodeMixShader", {}, {0: fac, 1: shader})
 
-        def metallic():
+        def metallic(isep=None):
             """The Metallic BSDF's lobes: the grey part of the weight on one,
-            each channel's excess over it on one of that channel only."""
-            if w[0] == "const" and isinstance(w[1], tuple) and len(set(w[1])) == 1:
-                return scaled(metal(ior, k), ("const", w[1][0]))
+            each channel's excess over it on one of that channel only
+            (``isep``: the index's Separate XYZ, if made already)."""
+            if self._grey(w) is not None:
+                return scaled(metal(ior, k), self._grey(w))
             sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
             wr, wg, wb = (("link", sep[1], i) for i in range(3))
             grey = self.math("MINIMUM", self.math("MINIMUM", wr, wg), wb)
             total = scaled(metal(ior, k), grey)
-            isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+            if isep is None:
+                isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
             ksep = self.node("ShaderNodeSeparateXYZ", {}, {0: k})
             for i, wc in enumerate((wr, wg, wb)):
                 only_ior = {j: (("link", isep[1], i) if j == i else ("const", 1.0))
@@ -467,7 +475,7 @@ class Planner:
                          self.node("ShaderNodeMath", {"operation": "COMPARE"},
                                    {0: ig, 1: ib, 2: ("const", 0.0)}))
         return self.node("ShaderNodeMixShader", {},
-                         {0: same, 1: metallic(),
+                         {0: same, 1: metallic(isep),
                           2: self._principled_dielectric(w, n, shape, ir, scaled)})
 
 
