@@ -42,6 +42,7 @@ Imports bpy.
 
 from __future__ import annotations
 
+import contextlib
 import re
 
 import bpy
@@ -385,7 +386,7 @@ def bind_lights(node, *lamps) -> None:
         groups.switch_variant(node, **{variants.LIGHTS_PARAM.name: str(len(lamps))})
     for k, obj in enumerate(lamps, start=1):
         _bind_one(node, k, obj)
-    sync_light_linking()
+    linking_changed()
 
 
 def unbind_lights(node) -> None:
@@ -394,7 +395,37 @@ def unbind_lights(node) -> None:
     first light's inputs keep the lamp's last values."""
     _check_node(node)
     _unbind(node)
-    sync_light_linking()
+    linking_changed()
+
+
+# [depth, pending]: the depth of :func:`deferred_linking` blocks entered, and whether a
+# binding or a mode changed inside them
+_DEFERRED = [0, False]
+
+
+def linking_changed() -> None:
+    """A binding or a mode changed: bring the light linking up to date now,
+    or at the end of the outermost :func:`deferred_linking` block."""
+    if _DEFERRED[0]:
+        _DEFERRED[1] = True
+    else:
+        sync_light_linking()
+
+
+@contextlib.contextmanager
+def deferred_linking():
+    """Inside the block, binding, unbinding and mode changes leave the light
+    linking as it is, and it is brought up to date once on leaving the
+    outermost block (an exception too): each update reads every hybrid
+    node in the file, so n of them one by one read n times n."""
+    _DEFERRED[0] += 1
+    try:
+        yield
+    finally:
+        _DEFERRED[0] -= 1
+        if not _DEFERRED[0] and _DEFERRED[1]:
+            _DEFERRED[1] = False
+            sync_light_linking()
 
 
 def _unbind(node) -> None:

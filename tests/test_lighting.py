@@ -968,6 +968,51 @@ def test_the_record_of_added_exclusions_follows_a_renamed_object(api, bpy):
         bpy.data.batch_remove([mat, plain, users])
 
 
+def test_a_deferred_block_brings_the_light_linking_up_to_date_once_at_its_end(api, bpy):
+    """Inside ``api.deferred_light_linking()`` binding, mode changes and
+    unbinding leave the light linking alone (each update reads every hybrid
+    node: n bindings one by one read n times n); leaving the outermost
+    block, by an exception too, brings it to what binding one by one
+    gives."""
+    from addon import lighting as linking
+    scene, sun, mat, node, objects = _two_hybrid_objects(api, bpy, "rm_ll_defer")
+    mat2 = _material("rm_ll_defer_2")
+    third = _mesh_object(bpy, scene, "rm_ll_defer_third", mat2)
+    node2 = api.add_model(mat2, "lambert", mode="exact")
+    calls = []
+    real = linking.sync_light_linking
+    try:
+        linking.sync_light_linking = lambda **kw: calls.append(kw) or real(**kw)
+        with api.deferred_light_linking():
+            api.bind_light(node, sun)
+            with api.deferred_light_linking():  # nested: only the outermost updates
+                api.bind_light(node2, sun)
+                api.set_mode(node2, "hybrid")
+            assert not calls and sun.light_linking.receiver_collection is None
+            assert api.bound_lights(node) == [sun] and api.get_mode(node2) == "hybrid"
+        assert len(calls) == 1
+        assert all(_excluded(sun, obj) for obj in (*objects, third))
+        with pytest.raises(KeyError):
+            with api.deferred_light_linking():
+                api.unbind_light(node2)
+                assert _excluded(sun, third)  # not yet
+                raise KeyError("an error inside the block")
+        assert len(calls) == 2 and not _excluded(sun, third)
+        assert all(_excluded(sun, obj) for obj in objects)
+        with api.deferred_light_linking():  # nothing changed: no update
+            api.bound_lights(node)
+        assert len(calls) == 2 and linking._DEFERRED == [0, False]
+        api.unbind_light(node)  # outside a block: at once
+        assert len(calls) == 3 and not any(_excluded(sun, obj) for obj in objects)
+    finally:
+        linking.sync_light_linking = real
+        api.unbind_light(node)
+        api.unbind_light(node2)
+        bpy.data.scenes.remove(scene)
+        bpy.data.batch_remove([mat, mat2, sun, sun.data, third, third.data,
+                               *objects, *(o.data for o in objects)])
+
+
 def test_an_object_deleted_from_its_scene_is_let_go(api, bpy):
     """Blender's Delete takes an object out of its scene's collections, but
     the extension's collection still held it, so it stayed in the data

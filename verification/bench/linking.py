@@ -11,7 +11,9 @@ at its first update, after an object's slot changed (the exclusions
 brought up to date), at another update of the scene, after objects
 moved, and after a node or a light was edited among 10 to 1,000
 materials (one of them with a bound node, or every one bound to four
-lamps).  In a process of its own with
+lamps), and binding 100 and 400 hybrid nodes one by one, each binding
+bringing the linking up to date or all in one
+``api.deferred_light_linking()`` block.  In a process of its own with
 nothing else in the file.  Measures and prints; asserts nothing.
 """
 
@@ -170,6 +172,43 @@ def _light_edit_bound(api, ui, m):
     return t1 - t0
 
 
+def _bind_many(api, n, deferred):
+    """Seconds to bind ``n`` hybrid nodes (each material on an object of
+    its own) to one sun one by one, the light linking brought up to date
+    after each binding or, ``deferred``, once at the end of an
+    ``api.deferred_light_linking()`` block; all removed."""
+    import bpy
+    scene = bpy.data.scenes.new(f"rm_bench_many_{n}")
+    sun = bpy.data.objects.new("rm_bench_many_sun", bpy.data.lights.new("rm_many", 'SUN'))
+    scene.collection.objects.link(sun)
+    materials, meshes, objects, nodes = [], [], [], []
+    for i in range(n):
+        materials.append(bpy.data.materials.new(f"rm_bench_many_{i}"))
+        nodes.append(api.add_model(materials[-1], "lambert", mode="hybrid"))
+        meshes.append(bpy.data.meshes.new(f"rm_bench_many_{i}"))
+        meshes[-1].from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+        meshes[-1].materials.append(materials[-1])
+        objects.append(bpy.data.objects.new(f"rm_bench_many_{i}", meshes[-1]))
+        scene.collection.objects.link(objects[-1])
+    t0 = time.perf_counter()
+    if deferred:
+        with api.deferred_light_linking():
+            for node in nodes:
+                api.bind_light(node, sun)
+    else:
+        for node in nodes:
+            api.bind_light(node, sun)
+    t1 = time.perf_counter()
+    coll = sun.light_linking.receiver_collection
+    assert coll is not None and len(coll.objects) == n, "the bench's bindings excluded too little"
+    with api.deferred_light_linking():
+        for node in nodes:
+            api.unbind_light(node)
+    bpy.data.batch_remove(materials + objects + meshes + [sun, sun.data])
+    bpy.data.scenes.remove(scene)
+    return t1 - t0
+
+
 def main(argv=None):
     from verification.harness import session as bpy_env
     bpy_env.prepare()
@@ -203,6 +242,14 @@ def main(argv=None):
           "after a light edit which bound lamps changed type or collections; all bound: each "
           "material an exact-mode node bound to the same four lamps; measured, not "
           "asserted)")
+    print("\nBinding hybrid nodes one by one to a sun, each material on an object of its own")
+    print(f"{'nodes':>9s} {'each bind':>10s} {'deferred':>9s}")
+    for n in (100, 400):
+        each, deferred = _bind_many(api, n, False), _bind_many(api, n, True)
+        print(f"{n:9d} {each:9.2f}s {deferred:8.2f}s")
+    print("(each bind: the light linking brought up to date after every binding, which "
+          "reads every hybrid node; deferred: in one api.deferred_light_linking() block, "
+          "brought up to date once at its end; measured, not asserted)")
     return 0
 
 
