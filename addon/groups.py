@@ -36,7 +36,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 23  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 24  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -89,6 +89,10 @@ NODES_VERSION = 23  # 2: a closure-only shader feeds the BSDF output;
 #    weight the tint of a coat of index 1) where the index is one number (the
 #    Metallic BSDF's conductor Fresnel at k = 0, an older approximation
 #    there, was 2.1 of the peak off); 5.2's graphs as before
+# 24: in Blender 4.5 that lobe also where the index differs by channel: one
+#    Principled BSDF per channel, its coat's tint the channel's unit colour
+#    (the Metallic BSDF there measured 0.06-0.14 of the peak off); 5.2's
+#    graphs as before
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

@@ -73,18 +73,19 @@ def test_path_traced_status_per_version_and_backend():
     # specular layer (a coloured Specular its coat's tint)
     assert glass.path_traced_status((5, 2), "native") == "exact"
     assert glass.path_traced_status((4, 5), "native") == "exact"
-    tinted = cases_mod.Case("microfacet", {**glass.params, "ks": (0.9, 0.5, 0.2)}, "w")
-    assert tinted.path_traced_status((4, 5), "native") == "exact"
-    for other in ({"ior": (1.3, 1.5, 1.7)}, {"distribution": "beckmann"},
-                  {"shadowing": "smith"}):
+    # and an index per channel, one such lobe per channel
+    for other in ({"ks": (0.9, 0.5, 0.2)}, {"ior": (1.3, 1.5, 1.7)}):
+        case = cases_mod.Case("microfacet", {**glass.params, **other}, "w")
+        assert case.path_traced_status((4, 5), "native") == "exact", other
+    for other in ({"distribution": "beckmann"}, {"shadowing": "smith"}):
         params = {**glass.params, **other}
         case = cases_mod.Case("microfacet", params, "w")
         assert case.path_traced_status((5, 2), "native") != "approx", other
         assert case.path_traced_status((4, 5), "native") == "approx", other
-    # values not known (a linked socket): the weight may be coloured
+    # values not known (a linked socket): whatever the index and the weight
     from addon.core.formulas import models as formulas
     variant = glass.enums
-    assert formulas.path_traced_status("microfacet", variant, None, (4, 5), "native") == "approx"
+    assert formulas.path_traced_status("microfacet", variant, None, (4, 5), "native") == "exact"
     assert formulas.path_traced_status("microfacet", variant, None, (5, 2), "native") == "exact"
     # a closure is the model only as wide as Cycles lets it be (alpha <= 1)
     deg = math.pi / 180.0
@@ -219,14 +220,18 @@ def test_path_traced_mode(verify, api, case, backend):
     {"ior": 2.4, "alpha_x": 0.05, "alpha_y": 0.3},
     {"ior": 1.33, "alpha_x": 0.3, "alpha_y": 0.08},
     {"ior": 1.5, "alpha": 0.3, "ks": (0.9, 0.5, 0.2)},  # a coloured Specular
-    {"ior": 1.3, "alpha": 0.1, "ks": (0.2, 1.0, 0.05)}], ids=lambda p: str(p))
+    {"ior": 1.3, "alpha": 0.1, "ks": (0.2, 1.0, 0.05)},
+    {"ior": (1.3, 1.5, 1.7), "alpha": 0.25},  # an index per channel
+    {"ior": (0.8, 1.5, 2.4), "alpha_x": 0.1, "alpha_y": 0.4, "ks": (0.9, 0.5, 0.2)}],
+    ids=lambda p: str(p))
 def test_native_dielectric_ggx_lobe_is_exact(bpy, verify, api, params):
     """Trowbridge-Reitz with correlated Smith and a dielectric's Fresnel, in
     the native nodes: 5.2's Metallic BSDF at extinction 0, 4.5's Principled
     BSDF specular layer (its Metallic BSDF's Fresnel is an older
     approximation: 0.39 of the peak off at index 1.5), at indices below and
-    above 1, lobes stretched along and across the tangent, and coloured
-    Specular (in 4.5 the tint of a coat that reflects nothing)."""
+    above 1, lobes stretched along and across the tangent, coloured
+    Specular (in 4.5 the tint of a coat that reflects nothing) and an index
+    per channel (in 4.5 a lobe per channel)."""
     case = cases_mod.Case("microfacet", {"distribution": "trowbridge_reitz",
                                          "shadowing": "smith_correlated",
                                          "fresnel": "dielectric", **params}, "native dielectric")

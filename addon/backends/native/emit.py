@@ -373,26 +373,32 @@ class Planner:
             return ("const", w[1][0])
         return None
 
-    def _principled_dielectric(self, w, n, shape, ior, scaled):
+    def _principled_dielectric(self, w, n, shape, ior, scaled, channel=None):
         """Where the Metallic BSDF's conductor Fresnel is an older
         approximation (4.5: 2.1 of the peak off for a dielectric, k = 0,
         measured), a GGX lobe with a dielectric's Fresnel of one real index
         is the Principled BSDF's specular layer: base colour black, GGX
         (single scattering), Specular IOR Level 0.5 (the index's own
-        Fresnel, exact: 5.7e-6 of the peak measured in 4.5.15), IOR the
-        red channel's (:meth:`_metallic` takes it only where the three are
-        equal); its Anisotropic and Anisotropic Rotation are the Metallic
-        BSDF's Anisotropy and Rotation.  Weighted by ``scaled`` (a Mix
-        Shader) with the largest channel of ``w``; a coloured ``w`` is the
-        tint of a coat of index 1 (which reflects nothing), whose tint t
-        Cycles applies to the layers under it as t^(1/|cos|), |cos| its
-        normal's with the view: a tint of (w / max w)^|N.I| is w / max w
-        (2.3e-5 of the peak measured in 4.5.15, colours (0.9, 0.5, 0.2),
-        (0.2, 1, 0.05), (0.7, 0.7, 0.3), views to 75 deg)."""
+        Fresnel, exact: 5.7e-6 of the peak measured in 4.5.15), IOR
+        ``ior``, one number; its Anisotropic and Anisotropic Rotation are
+        the Metallic BSDF's Anisotropy and Rotation.  Weighted by ``scaled``
+        (a Mix Shader) with the largest channel of ``w``; a coloured ``w``
+        is the tint of a coat of index 1 (which reflects nothing), whose
+        tint t Cycles applies to the layers under it as t^(1/|cos|), |cos|
+        its normal's with the view: a tint of (w / max w)^|N.I| is
+        w / max w (2.3e-5 of the peak measured in 4.5.15, colours
+        (0.9, 0.5, 0.2), (0.2, 1, 0.05), (0.7, 0.7, 0.3), views to 75 deg).
+        ``channel`` (0, 1 or 2): the lobe of that channel only, weighted by
+        ``w`` there (a scalar), its coat's tint that channel's unit colour
+        (1^x = 1, 0^x = 0): an index per channel is three such lobes."""
         names = {"Anisotropy": "Anisotropic", "Rotation": "Anisotropic Rotation"}
         inputs = {names.get(key, key): value for key, value in shape.items()}
-        size = self._grey(w)
-        if size is None:
+        size = w if channel is not None else self._grey(w)
+        if channel is not None:
+            inputs.update({"Coat Weight": ("const", 1.0), "Coat IOR": ("const", 1.0),
+                           "Coat Tint": ("const", tuple(float(i == channel) for i in range(3))),
+                           "Coat Normal": n})
+        elif size is None:
             sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
             channels = [("link", sep[1], i) for i in range(3)]
             size = self.math("MAXIMUM", self.math("MAXIMUM", channels[0], channels[1]),
@@ -416,8 +422,9 @@ class Planner:
         stretches along the tangent).  Weighted by Mix Shaders: the grey
         part of the weight on one closure, what each channel has beyond it on
         a closure of that channel only.  Where this Blender's conductor
-        Fresnel is an older approximation (4.5), a dielectric's GGX lobe of
-        one index is :meth:`_principled_dielectric` instead."""
+        Fresnel is an older approximation (4.5), a dielectric's GGX lobe is
+        :meth:`_principled_dielectric` instead (one lobe where the index's
+        three channels are equal, else one per channel)."""
         if t is None:  # isotropic (``ax`` is ``ay``): no anisotropy, no tangent
             shape = {"Roughness": self.math("SQRT", ax), "Normal": n}
         else:
@@ -440,18 +447,16 @@ class Planner:
             fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
             return self.node("ShaderNodeMixShader", {}, {0: fac, 1: shader})
 
-        def metallic(isep=None):
+        def metallic():
             """The Metallic BSDF's lobes: the grey part of the weight on one,
-            each channel's excess over it on one of that channel only
-            (``isep``: the index's Separate XYZ, if made already)."""
+            each channel's excess over it on one of that channel only."""
             if self._grey(w) is not None:
                 return scaled(metal(ior, k), self._grey(w))
             sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
             wr, wg, wb = (("link", sep[1], i) for i in range(3))
             grey = self.math("MINIMUM", self.math("MINIMUM", wr, wg), wb)
             total = scaled(metal(ior, k), grey)
-            if isep is None:
-                isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
+            isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
             ksep = self.node("ShaderNodeSeparateXYZ", {}, {0: k})
             for i, wc in enumerate((wr, wg, wb)):
                 only_ior = {j: (("link", isep[1], i) if j == i else ("const", 1.0))
@@ -467,15 +472,27 @@ class Planner:
         dielectric = k[0] == "const" and not any(k[1] if isinstance(k[1], tuple) else (k[1],))
         if self.exact_conductor or not dielectric or dist != "GGX":
             return metallic()
-        # one index in every channel: the Principled BSDF's exact dielectric lobe
+        # the Principled BSDF's exact dielectric lobe: one where the three channels have
+        # one index, else one lobe per channel (three closures)
         isep = self.node("ShaderNodeSeparateXYZ", {}, {0: ior})
-        ir, ig, ib = (("link", isep[1], i) for i in range(3))
+        indices = [("link", isep[1], i) for i in range(3)]
+        ir, ig, ib = indices
         same = self.math("MULTIPLY", self.node("ShaderNodeMath", {"operation": "COMPARE"},
                                                {0: ir, 1: ig, 2: ("const", 0.0)}),
                          self.node("ShaderNodeMath", {"operation": "COMPARE"},
                                    {0: ig, 1: ib, 2: ("const", 0.0)}))
+        if self._grey(w) is not None:
+            weights = [self._grey(w)] * 3
+        else:
+            wsep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
+            weights = [("link", wsep[1], i) for i in range(3)]
+        per_channel = None
+        for c in range(3):
+            lobe = self._principled_dielectric(weights[c], n, shape, indices[c], scaled, c)
+            per_channel = lobe if per_channel is None else \
+                self.node("ShaderNodeAddShader", {}, {0: per_channel, 1: lobe})
         return self.node("ShaderNodeMixShader", {},
-                         {0: same, 1: metallic(isep),
+                         {0: same, 1: per_channel,
                           2: self._principled_dielectric(w, n, shape, ir, scaled)})
 
 

@@ -645,28 +645,18 @@ def path_traced_status(model_id: str, enums: dict, params=None, blender_version=
     status = FORMULAS[model_id].fidelity(enums, caps, params=params)
     # 4.5's conductor closure is an older approximation; the native nodes
     # also carry a dielectric's Fresnel through it (k = 0), but for a GGX
-    # lobe of one index (the Principled BSDF's specular layer, its weight's
-    # colour a coat's tint: backends/native/emit.py), which the exact
-    # closure of Trowbridge-Reitz with correlated Smith is
+    # lobe (the Principled BSDF's specular layer, one per channel where the
+    # index differs by channel, its weight's colour a coat's tint:
+    # backends/native/emit.py), which the exact closure of Trowbridge-Reitz
+    # with correlated Smith is
     through_conductor = enums.get("fresnel") == "conductor" or (
         backend == "native" and enums.get("fresnel") == "dielectric"
-        and not _principled_dielectric(enums, params))
+        and (enums.get("distribution"), enums.get("shadowing"))
+        != ("trowbridge_reitz", "smith_correlated"))
     if through_conductor and tuple(blender_version[:2]) < (5, 2) and \
             status in ("exact", "near", "fitted"):
         return "approx"
     return status
-
-
-def _principled_dielectric(enums: dict, params) -> bool:
-    """Whether the native nodes render a dielectric variant's BSDF output
-    as one GGX lobe of one real index: the index's three channels equal in
-    ``params`` (None, values not known: a linked socket may make them
-    differ, so not)."""
-    if (enums.get("distribution"), enums.get("shadowing")) != \
-            ("trowbridge_reitz", "smith_correlated") or params is None:
-        return False
-    value = params.get("ior")
-    return not (isinstance(value, (tuple, list)) and len(set(float(x) for x in value[:3])) > 1)
 
 
 def exact(model_id: str, v: Values, s: Shading, lights=None) -> dict:
