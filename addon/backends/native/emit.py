@@ -34,8 +34,9 @@ and power); the few that have no node are composed:
   input, so its weight is a Mix Shader, and a coloured weight takes one
   closure per channel (the others get n = 1, k = 0, where F = 0); a
   dielectric is a conductor of k = 0, but in Blender 4.5 (an older
-  conductor Fresnel) a GGX lobe of one index is the Principled BSDF's
-  specular layer, exact, its weight's colour the tint of a coat of index 1.
+  conductor Fresnel) a GGX lobe is the Principled BSDF's specular layer (one
+  per channel where the index differs by channel), exact, its weight's
+  colour the tint of a coat of index 1.
 """
 
 from __future__ import annotations
