@@ -977,8 +977,9 @@ def _exclusions(evaluate=True, hybrid=None):
     the caller has it."""
     need = {}
     hybrid = hybrid_bindings() if hybrid is None else hybrid
-    bound = {lamp for _m, _n, lamps in hybrid for lamp in lamps}  # ``users_scene`` walks
-    lamp_scenes = {scene for lamp in bound for scene in lamp.users_scene}  # every scene
+    # each lamp asked once: ``users_scene`` walks every scene
+    bound = {lamp for _m, _n, lamps in hybrid for lamp in lamps}
+    lamp_scenes = {scene for lamp in bound for scene in lamp.users_scene}
     evaluated, unknown = _evaluated_users(evaluate, lamp_scenes) if hybrid else ({}, set())
     slot_users = _slot_users() if hybrid else {}
     for mat, _node, lamps in hybrid:

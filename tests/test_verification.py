@@ -69,8 +69,8 @@ def test_path_traced_status_per_version_and_backend():
     glass = by("microfacet[trowbridge_reitz/smith_correlated/dielectric 1.5]")
     assert glass.path_traced_status((4, 5)) == "exact"  # OSL: dielectric_bsdf
     # the native nodes carry it through the Metallic node's conductor (k = 0), which
-    # 4.5 approximates, but for a GGX lobe of one index: the Principled BSDF's
-    # specular layer (a coloured Specular its coat's tint)
+    # 4.5 approximates, but for a GGX lobe: the Principled BSDF's specular layer (a
+    # coloured Specular its coat's tint)
     assert glass.path_traced_status((5, 2), "native") == "exact"
     assert glass.path_traced_status((4, 5), "native") == "exact"
     # and an index per channel, one such lobe per channel

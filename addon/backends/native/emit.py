@@ -394,12 +394,9 @@ class Planner:
         (1^x = 1, 0^x = 0): an index per channel is three such lobes."""
         names = {"Anisotropy": "Anisotropic", "Rotation": "Anisotropic Rotation"}
         inputs = {names.get(key, key): value for key, value in shape.items()}
-        size = w if channel is not None else self._grey(w)
-        if channel is not None:
-            inputs.update({"Coat Weight": ("const", 1.0), "Coat IOR": ("const", 1.0),
-                           "Coat Tint": ("const", tuple(float(i == channel) for i in range(3))),
-                           "Coat Normal": n})
-        elif size is None:
+        size, tint = (w, ("const", tuple(float(i == channel) for i in range(3)))) \
+            if channel is not None else (self._grey(w), None)
+        if size is None:
             sep = self.node("ShaderNodeSeparateXYZ", {}, {0: w})
             channels = [("link", sep[1], i) for i in range(3)]
             size = self.math("MAXIMUM", self.math("MAXIMUM", channels[0], channels[1]),
@@ -408,6 +405,7 @@ class Planner:
             tint = self.node("ShaderNodeCombineXYZ", {}, {
                 i: self.math("POWER", self.math("DIVIDE", c, size), cos)
                 for i, c in enumerate(channels)})
+        if tint is not None:
             inputs.update({"Coat Weight": ("const", 1.0), "Coat IOR": ("const", 1.0),
                            "Coat Tint": tint, "Coat Normal": n})
         shader = self.node("ShaderNodeBsdfPrincipled", {"distribution": "GGX"},
