@@ -117,6 +117,22 @@ def test_the_core_needs_neither_blender_nor_a_renderer(path):
             assert mod == "addon.core" or mod.startswith("addon.core."), (line, mod)
 
 
+@pytest.mark.parametrize("path", list(_files("addon")), ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_extension_imports_itself_relatively(path):
+    """Installed, the extension is the package ``bl_ext.<repository>.
+    reflection_models`` and no package ``addon`` exists: a module of it
+    that imports ``addon`` by name fails in Blender (three did, until the
+    forty-eighth session; tests/test_packaging.py installs the zip where
+    the source tree is out of reach)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            assert not [a.name for a in node.names if a.name.split(".")[0] == "addon"], \
+                node.lineno
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            assert (node.module or "").split(".")[0] != "addon", node.lineno
+
+
 def test_the_layers_exist_and_the_old_ones_are_gone():
     for name in ("addon/core", "addon/backends/osl", "verification/harness",
                  "verification/scenes", "verification/experiments", "verification/suites",

@@ -3,14 +3,18 @@
 headless Blender through Blender's own extension machinery."""
 
 import importlib
+import json
+import os
 import re
 import shutil
+import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
 import pytest
 
+from addon import catalogue
 from verification.harness import package as bz
 from verification.harness import session as bpy_env
 
@@ -231,3 +235,30 @@ def test_fresh_process_render_has_no_extension(bpy, installed_extension, tmp_pat
     assert not [a for a in report["addons"] if bpy_env.EXTENSION_ID in a]  # ...not there
     assert report["blender"] == bpy.app.version_string
     bpy_env.reset_scene()
+
+
+def test_the_installed_zip_works_without_the_source_tree(extension_zip, tmp_path):
+    """As in a user's Blender: the zip installed through Blender's installer
+    in a new process whose path holds no copy of this repository
+    (verification/harness/installed_check.py, run as a script from another
+    folder) registers, builds every model and preset in both modes (the OSL
+    shaders and the native nodes) and renders each of them lit and finite
+    with Open Shading Language off and on.  Until the forty-eighth session
+    three modules of the extension imported the source tree's ``addon``
+    package: in Blender the extension failed to register ("No module named
+    'addon'"), while every other test, whose process has the repository on
+    its path, passed."""
+    script = REPO_ROOT / "verification" / "harness" / "installed_check.py"
+    env = {k: v for k, v in os.environ.items()
+           if k != "PYTHONPATH" and not k.startswith("BLENDER_USER_")}
+    proc = subprocess.run([sys.executable, str(script), str(extension_zip), str(tmp_path)],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("INSTALLED-REPORT ")]
+    assert proc.returncode == 0 and lines, proc.stdout[-4000:] + proc.stderr[-4000:]
+    report = json.loads(lines[-1][len("INSTALLED-REPORT "):])
+    assert not report["addon_importable"]  # the source tree is out of reach
+    assert report["nodes"] == 2 * (len(catalogue.MODELS) + len(catalogue.PRESETS))
+    for osl in (False, True):
+        rendered = report[f"osl_{osl}"]
+        assert rendered["finite"] and len(rendered["centres"]) == report["nodes"]
+        assert min(rendered["centres"].values()) > 0.0, rendered["centres"]

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from addon.core.formulas import expr as E
+from ...core.formulas import expr as E
 
 FLT_MAX = 3.4028234663852886e38
 RAY_OFFSET = 1e-4

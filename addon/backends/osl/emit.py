@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from addon.core.formulas import expr as E
+from ...core.formulas import expr as E
 
 GEOMETRY = {"N": "N", "I": "rm_view()", "P": "P", "uv_tangent": "default_tangent"}
 _TYPES = {"f": "float", "v": "vector", "c": "closure color"}

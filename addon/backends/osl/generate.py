@@ -21,9 +21,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from addon.core import catalogue, variants
-from addon.core.formulas import expr as E
-from addon.core.formulas import models as M
+from ...core import catalogue, variants
+from ...core.formulas import expr as E
+from ...core.formulas import models as M
 
 from .emit import number, statements
 
