@@ -11,8 +11,9 @@ tangent, a Tangent node (UV map) feeding ``default_tangent``.
 
 Each group stores ``tree["rm_model"]`` (model id), ``tree["rm_variant"]``
 (its structural choices), ``tree["rm_version"]`` (:data:`NODES_VERSION` when
-built) and ``tree["rm_sockets"]`` (interface identifier -> ``"in:<param>"``
-or ``"out:<shader output>"``), which lets :func:`upgrade_group` and
+built), ``tree["rm_native"]`` (the native capabilities its native nodes
+were planned for, where it has them) and ``tree["rm_sockets"]`` (interface
+identifier -> ``"in:<param>"`` or ``"out:<shader output>"``), which lets :func:`upgrade_group` and
 :func:`switch_variant` carry socket values, links, drivers and keyframes
 across a rebuild.
 
@@ -25,6 +26,7 @@ import re
 
 import bpy
 
+from .backends.native import build as native_build
 from .backends.osl import compile as osl_compile
 from .backends.osl.generate import enum_codes, shader_name
 from .core import catalogue
@@ -36,7 +38,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 24  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 25  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -93,6 +95,12 @@ NODES_VERSION = 24  # 2: a closure-only shader feeds the BSDF output;
 #    Principled BSDF per channel, its coat's tint the channel's unit colour
 #    (the Metallic BSDF there measured 0.06-0.14 of the peak off); 5.2's
 #    graphs as before
+# 25: in Blender 4.5 the native Metallic BSDF's weight times the exact
+#    Fresnel over 4.5's approximation at the view (exact at the lobe's
+#    mirror direction); groups record the Blender capabilities their native
+#    nodes were built for (``rm_native``), and a group built for another
+#    Blender's is outdated too (a file made in 4.5 opened in 5.2 had no
+#    shadow ray in native exact mode)
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 
@@ -145,10 +153,31 @@ def _resolved_info(tree):
 
 
 def find_outdated_groups() -> list:
-    """Local groups built by an older :data:`NODES_VERSION`."""
+    """Local groups built by an older :data:`NODES_VERSION`, or whose native
+    nodes were planned for another Blender's (:func:`built_for_another_blender`)."""
     return [t for t in bpy.data.node_groups
-            if t.library is None and rm_info(t) is not None
-            and int(t.get("rm_version", 0)) < NODES_VERSION]
+            if t.library is None and rm_info(t) is not None and is_outdated(t)]
+
+
+def is_outdated(tree) -> bool:
+    """Whether the RM group ``tree`` is to be built again: by an older
+    :data:`NODES_VERSION`, or for another Blender's native nodes."""
+    return int(tree.get("rm_version", 0)) < NODES_VERSION or built_for_another_blender(tree)
+
+
+def built_for_another_blender(tree) -> bool:
+    """Whether the native nodes of RM group ``tree`` were planned for a
+    Blender with other native capabilities than this one's
+    (``native.build.capabilities``: the Raycast node, the exact conductor
+    Fresnel), as when a file made in 4.5 is opened in 5.2: its exact mode
+    has no shadow ray, and its Metallic BSDFs' weights correct a Fresnel
+    that 5.2 no longer approximates.  A group without native nodes (backend
+    'osl'), or one an older version built, records none."""
+    built = tree.get("rm_native")
+    if built is None:
+        return False
+    return {key: bool(built.get(key)) for key in native_build.capabilities()} \
+        != native_build.capabilities()
 
 
 def _trees_with_nodes():
@@ -349,7 +378,7 @@ def ensure_group(model_id: str, **enums):
         except Exception:
             remove_group(tree)
             raise
-    elif int(tree.get("rm_version", 0)) < NODES_VERSION:
+    elif is_outdated(tree):
         upgrade_group(tree)
     return tree
 
@@ -504,6 +533,10 @@ def _build(tree, model_id: str, variant: dict) -> None:
     tree["rm_model"] = model.id
     tree["rm_variant"] = dict(variant)
     tree["rm_version"] = NODES_VERSION
+    if "native" in results:
+        tree["rm_native"] = native_build.capabilities()
+    elif "rm_native" in tree:
+        del tree["rm_native"]
     tree["rm_sockets"] = sockets
     if hasattr(tree, "description"):
         tree.description = model.description
@@ -579,7 +612,6 @@ def _build_native(tree, model, variant, group_input) -> dict:
     """The native nodes, generated from the same description as the OSL:
     the exact evaluation (the shadow through the Raycast node where Blender
     has one) and the path-traced closures."""
-    from .backends.native import build as native_build
     from .backends.native import emit as native_emit
     from .core.formulas import models as formulas
 
@@ -608,7 +640,6 @@ def _feed(tree, socket, src):
     if src is None:
         return
     if isinstance(src, tuple) and src and src[0] == "const":
-        from .backends.native import build as native_build
         native_build.set_constant(socket, src[1])
         return
     tree.links.new(src, socket)

@@ -330,7 +330,8 @@ class NODE_OT_rm_upgrade_groups(bpy.types.Operator):
     bl_idname = "node.rm_upgrade_groups"
     bl_label = "Upgrade Groups"
     bl_description = ("Rebuild the Reflection Models node groups made by an older version "
-                      "of the extension, keeping the nodes' values and links")
+                      "of the extension or for another Blender version's native nodes, "
+                      "keeping the nodes' values and links")
     bl_options = {'REGISTER', 'UNDO'}
 
     @classmethod
@@ -451,7 +452,13 @@ class NODE_PT_rm_sidebar(bpy.types.Panel):
         outdated = groups.find_outdated_groups()
         if outdated:
             box = layout.box()
-            box.label(text=f"{len(outdated)} group(s) from an older version", icon='INFO')
+            other = sum(map(groups.built_for_another_blender, outdated))
+            if len(outdated) > other:
+                box.label(text=f"{len(outdated) - other} group(s) from an older version",
+                          icon='INFO')
+            if other:
+                box.label(text=f"{other} group(s) built for another Blender's native nodes",
+                          icon='INFO')
             box.operator(NODE_OT_rm_upgrade_groups.bl_idname, icon='FILE_REFRESH')
         node = _active_rm_node(context)
         if node is None:

@@ -711,3 +711,21 @@ def test_kajiya_kay_holds_with_the_light_or_the_view_along_the_fibre(api, bpy, o
         ref = R.shade("kajiya_kay", wi, np.array([0.0, 0.0, 1.0]), tangent=t)
         assert np.all(np.abs(img - ref) <= cases_mod.EXACT_MODE_TOLERANCE * ref), \
             (deg, float((np.abs(img - ref) / ref).max()))
+
+
+def test_the_view_factor_brings_4_5s_metallic_lobe_closer_to_the_model():
+    """Blender 4.5's Metallic BSDF approximates the conductor Fresnel
+    (tests/test_verification.py renders the factor exact at the mirror
+    direction);
+    over the hemisphere, in numpy on the closures' checked transcriptions
+    (fitting/older_conductor.py), the factor brings the
+    lobe closer to the model everywhere in the domain, a dielectric's by
+    more than ten times where the lobe is not wider than alpha 0.5."""
+    from fitting import older_conductor as X
+
+    glass, gold = X.MATERIALS[1], X.MATERIALS[4]
+    assert glass[0] == "glass 1.5" and gold[0] == "gold"
+    for name, alpha, without, with_ in X.table("beckmann", (glass, gold), (0.05, 0.5, 1.0)):
+        assert with_[0] < without[0]
+        if name == "glass 1.5" and alpha <= 0.5:
+            assert with_[0] < without[0] / 10

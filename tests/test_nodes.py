@@ -383,6 +383,30 @@ def test_upgrade_keeps_the_group_and_the_users_values_and_links(nodes, bpy):
     _assert_user_setup_kept(nodes, mat, node, source, out, "albedo", (0.1, 0.2, 0.3))
 
 
+def test_a_group_built_for_another_blenders_native_nodes_is_rebuilt(nodes, monkeypatch):
+    """A file made in 4.5 and opened in 5.2 (or the other way round) holds
+    native nodes planned for the other Blender: in 5.2 its exact mode had
+    no shadow ray, and its Metallic BSDFs' weights would correct a Fresnel
+    5.2 computes exactly.  Such a group is outdated: listed by
+    find_outdated_groups, and built again for this Blender by ensure_group."""
+    from addon.backends.native import build as native_build
+
+    here = native_build.capabilities()
+    tree = nodes.ensure_group("microfacet", fresnel="dielectric")
+    assert dict(tree["rm_native"]) == here and nodes.find_outdated_groups() == []
+    other = {**here, "exact_conductor": not here["exact_conductor"]}
+    with monkeypatch.context() as m:  # built as the other Blender builds it
+        m.setattr(native_build, "capabilities", lambda: other)
+        nodes.upgrade_group(tree)
+        assert nodes.find_outdated_groups() == []
+    assert dict(tree["rm_native"]) == other
+    assert nodes.find_outdated_groups() == [tree] and nodes.built_for_another_blender(tree)
+    assert nodes.ensure_group("microfacet", fresnel="dielectric") == tree
+    assert dict(tree["rm_native"]) == here and nodes.find_outdated_groups() == []
+    osl_only = nodes.ensure_group("lambert", backend="osl")  # no native nodes: nothing recorded
+    assert "rm_native" not in osl_only and not nodes.built_for_another_blender(osl_only)
+
+
 def test_ensure_group_upgrades_an_outdated_group_in_place(nodes):
     tree = nodes.ensure_group("lambert")
     tree["rm_version"] = 0

@@ -36,7 +36,9 @@ and power); the few that have no node are composed:
   dielectric is a conductor of k = 0, but in Blender 4.5 (an older
   conductor Fresnel) a GGX lobe is the Principled BSDF's specular layer (one
   per channel where the index differs by channel), exact, its weight's
-  colour the tint of a coat of index 1.
+  colour the tint of a coat of index 1; 4.5's other Metallic BSDFs have
+  their weight multiplied by the exact Fresnel over 4.5's at the view
+  (:func:`older_fresnel_factor`: exact at the lobe's mirror direction).
 """
 
 from __future__ import annotations
@@ -357,14 +359,19 @@ class Planner:
                              {"Color": w, "RoughnessU": ru, "RoughnessV": rv, "Tangent": t,
                               "Offset": offset})
         if name in ("conductor", "dielectric"):
+            dist = GLOSSY[params["distribution"]]
+            zero_k = name == "dielectric" or _is_zero(e.args[6])
+            corr = None
+            if not self.exact_conductor and not (zero_k and dist == "GGX"):
+                # 4.5's conductor Fresnel, and no Principled lobe for it: the weight corrected
+                corr = self.ref(older_fresnel_factor(e))
             if name == "conductor":
                 n, t, ax, ay, ior, k = args
             else:  # a dielectric is a conductor of extinction 0 (F at total internal reflection: 1)
                 n, t, ax, ay, ior = args
                 ior = self.node("ShaderNodeCombineXYZ", {}, {0: ior, 1: ior, 2: ior})
                 k = ("const", (0.0, 0.0, 0.0))
-            return self._metallic(w, n, None if isotropic else t, ax, ay, ior, k,
-                                  GLOSSY[params["distribution"]])
+            return self._metallic(w, n, None if isotropic else t, ax, ay, ior, k, dist, corr)
         raise ValueError(f"no native closure {name!r}")
 
     @staticmethod
@@ -414,7 +421,7 @@ class Planner:
                             "IOR": ior, **inputs})
         return scaled(shader, size)
 
-    def _metallic(self, w, n, t, ax, ay, ior, k, dist):
+    def _metallic(self, w, n, t, ax, ay, ior, k, dist, corr=None):
         """Metallic BSDF (physical conductor): roughness sqrt(sqrt(ax ay)),
         anisotropy 1 - (small/large)/0.9 ... clamped to a ratio of 10, and a
         quarter turn of the tangent when ax < ay (its anisotropy only
@@ -423,7 +430,8 @@ class Planner:
         a closure of that channel only.  Where this Blender's conductor
         Fresnel is an older approximation (4.5), a dielectric's GGX lobe is
         :meth:`_principled_dielectric` instead (one lobe where the index's
-        three channels are equal, else one per channel)."""
+        three channels are equal, else one per channel).  ``corr``: a factor
+        of every channel's weight (:func:`older_fresnel_factor`), or None."""
         if t is None:  # isotropic (``ax`` is ``ay``): no anisotropy, no tangent
             shape = {"Roughness": self.math("SQRT", ax), "Normal": n}
         else:
@@ -443,6 +451,8 @@ class Planner:
                              {"IOR": ior_, "Extinction": k_, **shape})
 
         def scaled(shader, s):
+            if corr is not None:
+                s = self.math("MULTIPLY", s, corr)
             fac = self.math("SUBTRACT", ("const", 1.0), s)  # Mix Shader clamps its factor
             return self.node("ShaderNodeMixShader", {}, {0: fac, 1: shader})
 
@@ -493,6 +503,43 @@ class Planner:
         return self.node("ShaderNodeMixShader", {},
                          {0: same, 1: per_channel,
                           2: self._principled_dielectric(w, n, shape, ir, scaled)})
+
+
+def older_conductor_fresnel(c, eta, k):
+    """Blender 4.5's conductor Fresnel, an approximation (Cycles 4.5's
+    ``fresnel_conductor``, read in its kernel, not copied; it matches the
+    renders of docs/cycles-closures.md): the mean of
+    (a c^2 - 2 eta c + 1)/(a c^2 + 2 eta c + 1) and
+    (a - 2 eta c + c^2)/(a + 2 eta c + c^2), a = eta^2 + k^2."""
+    a, c2, two = eta * eta + k * k, c * c, 2.0 * eta * c
+    return 0.5 * (E.div(a * c2 - two + 1.0, a * c2 + two + 1.0)
+                  + E.div(a - two + c2, a + two + c2))
+
+
+def older_fresnel_factor(e):
+    """What the weight of a conductor (or dielectric) closure ``e`` is
+    multiplied by on a Metallic BSDF whose Fresnel is Blender 4.5's
+    approximation: per channel, the exact Fresnel over the approximation,
+    both at the view's cosine with the closure's normal (Cycles takes F at
+    the half vector, which is the normal at the mirror direction, where the
+    lobe peaks).  The closure has no colour input, so one factor serves the
+    three channels: the channels' ratio where they agree (a dielectric's
+    one index), else the one nearest 1 on the side where they all lie (1
+    where they lie on both), so that at the mirror direction no channel's
+    Fresnel is further off than without it."""
+    from ...core.formulas import library as L
+
+    normal, ior = e.args[1], e.args[5]
+    k = e.args[6] if e.data[0] == "conductor" else 0.0
+    c = E.clamp(E.dot(normal, E.geometry("I")), 0.0, 1.0)
+    ratio = L.per_channel(lambda c_, eta, k_: E.div(L.F_conductor(c_, eta, k_),
+                                                    older_conductor_fresnel(c_, eta, k_)),
+                          c, ior, k)
+    r = [ratio[i] for i in range(3)]
+    if r[0] is r[1] is r[2]:
+        return r[0]
+    low, high = E.fmin(E.fmin(r[0], r[1]), r[2]), E.fmax(E.fmax(r[0], r[1]), r[2])
+    return E.fmax(low, E.fmin(high, 1.0))
 
 
 def plan(outputs: dict, *, raycast: bool = True, exact_conductor: bool = True):
