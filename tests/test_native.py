@@ -24,6 +24,7 @@ generated graphs.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -270,6 +271,48 @@ def test_the_shadow_falls_where_the_geometry_puts_it(api, bpy, osl):
     else:  # Blender 4.5: no Raycast node, no shadow in the native exact mode
         assert np.allclose(img[inside], lit_value, rtol=1e-4, atol=0)
     assert np.allclose(unshadowed[inside | outside], lit_value, rtol=1e-4, atol=0)
+
+
+OTHER_SERIES = Path(__file__).resolve().parent / "data" / "shadow_scene_{}.blend"
+
+
+def test_a_file_made_in_the_other_series_is_built_again_for_this_one(api, bpy):
+    """tests/data/shadow_scene_5.2.blend and shadow_scene_4.5.blend (made by
+    tests/data/make_shadow_scene.py at NODES_VERSION 25 in each series): the
+    shadow scene above, opened in the other series (4.5 reads 5.2's file
+    with "expect loss of data" and drops its Raycast node).  Its group's
+    native nodes were planned for the other Blender: in 5.2 the 4.5 file's
+    native exact mode cast no shadow, and nothing said so.  The group is
+    listed as outdated and, upgraded, renders as this Blender's own: the
+    shadow where the geometry puts it in 5.2, none in 4.5 (no Raycast node)."""
+    from addon import groups
+    from addon.backends.native.build import has_raycast
+    from verification.harness import session
+
+    other = "4.5" if bpy.app.version >= (5, 0) else "5.2"
+    bpy.ops.wm.open_mainfile(filepath=str(OTHER_SERIES).format(other), load_ui=False)
+    try:
+        scene = bpy.data.scenes["rm_shadow_False"]
+        (tree,) = [t for t in bpy.data.node_groups if groups.rm_info(t) is not None]
+        assert groups.built_for_another_blender(tree) and groups.find_outdated_groups() == [tree]
+        before, _seconds = common.render_image(scene)
+        groups.upgrade_group(tree)
+        assert groups.find_outdated_groups() == []
+        img, _seconds = common.render_image(scene)
+    finally:
+        session.reset_scene()
+    X, Y = _pixel_centres()
+    margin = 1.5 * PIXEL
+    inside = (np.abs(X) < HALF - margin) & (np.abs(Y) < HALF - margin)
+    outside = (np.abs(X) > HALF + margin) | (np.abs(Y) > HALF + margin)
+    lit_value = float(R.shade("lambert", SUN[None], np.array([[0.0, 0.0, 1.0]]))[0, 0])
+    assert inside.sum() > 50 and outside.sum() > 500
+    assert np.allclose(img[outside], lit_value, rtol=1e-4, atol=0)  # float32
+    if has_raycast():
+        assert np.allclose(before[inside], lit_value, rtol=1e-4, atol=0)  # 4.5's: no shadow
+        assert np.all(img[inside] == 0.0)
+    else:
+        assert np.allclose(img[inside], lit_value, rtol=1e-4, atol=0)
 
 
 # --------------------------------------------------------------------------
