@@ -3,11 +3,8 @@
 headless Blender through Blender's own extension machinery."""
 
 import importlib
-import json
-import os
 import re
 import shutil
-import subprocess
 import sys
 import zipfile
 from pathlib import Path
@@ -248,14 +245,9 @@ def test_the_installed_zip_works_without_the_source_tree(extension_zip, tmp_path
     package: in Blender the extension failed to register ("No module named
     'addon'"), while every other test, whose process has the repository on
     its path, passed."""
-    script = REPO_ROOT / "verification" / "harness" / "installed_check.py"
-    env = {k: v for k, v in os.environ.items()
-           if k != "PYTHONPATH" and not k.startswith("BLENDER_USER_")}
-    proc = subprocess.run([sys.executable, str(script), str(extension_zip), str(tmp_path)],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
-    lines = [line for line in proc.stdout.splitlines() if line.startswith("INSTALLED-REPORT ")]
-    assert proc.returncode == 0 and lines, proc.stdout[-4000:] + proc.stderr[-4000:]
-    report = json.loads(lines[-1][len("INSTALLED-REPORT "):])
+    from verification.harness import installed_check
+
+    report = installed_check.run(extension_zip, tmp_path)
     assert not report["addon_importable"]  # the source tree is out of reach
     assert report["nodes"] == 2 * (len(catalogue.MODELS) + len(catalogue.PRESETS))
     for osl in (False, True):

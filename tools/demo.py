@@ -2,7 +2,10 @@
 """The main command: ``make demo`` (``python -m tools.demo``).
 
 1. Builds the extension zip with Blender's own tool and installs it into a
-   clean headless Blender (throwaway user folders, ``tools.bpy_env``).
+   clean headless Blender (throwaway user folders, ``tools.bpy_env``), and
+   once more in a new process whose path holds no copy of the source tree
+   (``verification.harness.installed_check``: every model and preset in
+   both modes rendered lit and finite, OSL off and on).
 2. Imports the **installed** extension's public API
    (``bl_ext.<repo>.reflection_models.api``) and runs every verification case
    of ``verification.suites.cases`` in both modes on the virtual
@@ -97,6 +100,18 @@ def run(args):
     module = session.install_extension(zip_path)
     api = importlib.import_module(module + ".api")
     log(f"installed into a clean Blender {bpy.app.version_string}; using {api.__name__}")
+    import tempfile
+
+    from verification.harness import installed_check
+    with tempfile.TemporaryDirectory(prefix="rm-installed-") as work:
+        alone = installed_check.run(zip_path, work)  # raises if it fails
+    unlit = [key for osl in (False, True) for key, value in alone[f"osl_{osl}"]["centres"].items()
+             if not value > 0.0]
+    if alone["addon_importable"] or unlit or not all(alone[f"osl_{osl}"]["finite"]
+                                                     for osl in (False, True)):
+        raise RuntimeError(f"the installed extension, away from the source tree: {alone}")
+    log(f"installed again where the source tree is out of reach: {alone['nodes']} nodes "
+        "(every model and preset, both modes) rendered lit and finite, OSL off and on")
 
     from report import anisotropy as report_aniso
     from report import lecture as report_lecture

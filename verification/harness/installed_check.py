@@ -10,7 +10,7 @@ Language off and on, and prints one line ``INSTALLED-REPORT {json}``.
 Arguments: the zip, and a folder for the user resources and the renders.
 Imports nothing from this repository: a module of the extension that
 imported the source tree's ``addon`` package would fail here, as it fails
-in Blender.
+in Blender.  :func:`run` starts it from the tests and ``make demo``.
 """
 
 import importlib
@@ -18,7 +18,28 @@ import importlib.util
 import json
 import math
 import os
+import subprocess
 import sys
+from pathlib import Path
+
+PREFIX = "INSTALLED-REPORT "
+
+
+def run(zip_path, work, timeout=600) -> dict:
+    """This file run as a script by this interpreter, from ``work`` (a new
+    folder), without ``PYTHONPATH`` or the harness's user folders: the
+    report it prints, as a dict.  Raises RuntimeError with the child's
+    output if it fails."""
+    env = {k: v for k, v in os.environ.items()
+           if k != "PYTHONPATH" and not k.startswith("BLENDER_USER_")}
+    proc = subprocess.run([sys.executable, str(Path(__file__).resolve()), str(zip_path),
+                           str(work)], cwd=work, env=env, capture_output=True, text=True,
+                          timeout=timeout)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith(PREFIX)]
+    if proc.returncode != 0 or not lines:
+        raise RuntimeError(f"the installed extension failed (exit {proc.returncode})\n"
+                           + proc.stdout[-4000:] + proc.stderr[-4000:])
+    return json.loads(lines[-1][len(PREFIX):])
 
 
 def main(zip_path, work):
@@ -85,7 +106,7 @@ def main(zip_path, work):
         report[f"osl_{osl}"] = {
             "finite": bool(np.isfinite(pixels).all()),
             "centres": {key: float(pixels[row, col].max()) for key, (col, row) in centres.items()}}
-    print("INSTALLED-REPORT " + json.dumps(report), flush=True)
+    print(PREFIX + json.dumps(report), flush=True)
 
 
 if __name__ == "__main__":
