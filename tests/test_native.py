@@ -759,11 +759,11 @@ def test_kajiya_kay_holds_with_the_light_or_the_view_along_the_fibre(api, bpy, o
 def test_the_view_factor_brings_4_5s_metallic_lobe_closer_to_the_model():
     """Blender 4.5's Metallic BSDF approximates the conductor Fresnel
     (tests/test_verification.py renders the factor exact at the mirror
-    direction);
-    over the hemisphere, in numpy on the closures' checked transcriptions
-    (fitting/older_conductor.py), the factor brings the
-    lobe closer to the model everywhere in the domain, a dielectric's by
-    more than ten times where the lobe is not wider than alpha 0.5."""
+    direction); over the hemisphere, in numpy on the closures' checked
+    transcriptions (fitting/older_conductor.py), the factor brings the lobe
+    closer to the model's Fresnel at the worst place of the domain, a
+    dielectric's by more than ten times where the lobe is not wider than
+    alpha 0.5."""
     from fitting import older_conductor as X
 
     glass, gold = X.MATERIALS[1], X.MATERIALS[4]

@@ -510,10 +510,13 @@ def older_conductor_fresnel(c, eta, k):
     ``fresnel_conductor``, read in its kernel, not copied; it matches the
     renders of docs/cycles-closures.md): the mean of
     (a c^2 - 2 eta c + 1)/(a c^2 + 2 eta c + 1) and
-    (a - 2 eta c + c^2)/(a + 2 eta c + c^2), a = eta^2 + k^2."""
-    a, c2, two = eta * eta + k * k, c * c, 2.0 * eta * c
-    return 0.5 * (E.div(a * c2 - two + 1.0, a * c2 + two + 1.0)
-                  + E.div(a - two + c2, a + two + c2))
+    (a - 2 eta c + c^2)/(a + 2 eta c + c^2), a = eta^2 + k^2, here as
+    ((eta c -+ 1)^2 + (k c)^2) and ((eta -+ c)^2 + k^2): the same numbers,
+    without float32 cancelling them to 0 where eta is near 1 and k near 0."""
+    kc2, k2 = (k * c) * (k * c), k * k
+    return 0.5 * (E.div((eta * c - 1.0) * (eta * c - 1.0) + kc2,
+                        (eta * c + 1.0) * (eta * c + 1.0) + kc2)
+                  + E.div((eta - c) * (eta - c) + k2, (eta + c) * (eta + c) + k2))
 
 
 def older_fresnel_factor(e):
@@ -532,9 +535,13 @@ def older_fresnel_factor(e):
     normal, ior = e.args[1], e.args[5]
     k = e.args[6] if e.data[0] == "conductor" else 0.0
     c = E.clamp(E.dot(normal, E.geometry("I")), 0.0, 1.0)
-    ratio = L.per_channel(lambda c_, eta, k_: E.div(L.F_conductor(c_, eta, k_),
-                                                    older_conductor_fresnel(c_, eta, k_)),
-                          c, ior, k)
+
+    def ratio_of(c_, eta, k_):
+        # k = 0: the dielectric's form (the same number; the conductor's
+        # cancels to 0 in float32 where the index is near 1)
+        exact = E.select(E.gt(k_, 0.0), L.F_conductor(c_, eta, k_), L.F_dielectric(c_, eta))
+        return E.div(exact, older_conductor_fresnel(c_, eta, k_))
+    ratio = L.per_channel(ratio_of, c, ior, k)
     r = [ratio[i] for i in range(3)]
     if r[0] is r[1] is r[2]:
         return r[0]
