@@ -730,6 +730,16 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     assert ("label", "BSDF output: exact (a Cycles closure is the model)") in \
         [e[:2] for e in layout.log]  # OSL's phong_ramp
     node.node_tree["rm_version"] = nodes.NODES_VERSION
+    # a group whose native nodes another Blender planned: its own label, the same button
+    here = dict(node.node_tree["rm_native"])
+    node.node_tree["rm_native"] = {**here, "raycast": not here["raycast"]}
+    layout = Recorder()
+    panel.draw(SimpleNamespace(layout=layout), ctx)
+    labels = [e[1] for e in layout.log if e[0] == "label"]
+    assert "1 group(s) built for another Blender's native nodes" in labels
+    assert not [text for text in labels if "older version" in text]
+    assert "node.rm_upgrade_groups" in [entry[1] for entry in layout.of("operator")]
+    node.node_tree["rm_native"] = here
 
     # the variant menu offers every choice and the operator switches
     layout = Recorder()
