@@ -57,8 +57,8 @@ SUPPORTED_LIGHTS = lighting.SUPPORTED_LIGHTS
 __all__ = ["add_model", "set_params", "set_mode", "get_mode", "bind_light", "unbind_light",
            "bound_light", "bound_lights", "light_drivers", "sync_light_linking",
            "deferred_light_linking", "enable_osl",
-           "osl_status", "rendering_backend", "ensure_groups", "apply_metal", "MODES", "METALS",
-           "BACKENDS"]
+           "osl_status", "rendering_backend", "ensure_groups", "upgrade_groups", "apply_metal",
+           "MODES", "METALS", "BACKENDS"]
 
 
 # ---------------------------------------------------------------------------
@@ -329,6 +329,19 @@ def ensure_groups() -> dict:
     """Build (or reuse) the default variant of every model; returns
     ``{model id: node group}``."""
     return {model_id: groups.ensure_group(model_id) for model_id in catalogue.MODELS}
+
+
+def upgrade_groups() -> list:
+    """Rebuild every local node group of the extension that an older version
+    built, or whose native nodes were planned for another Blender's (a file
+    made in 4.5 opened in 5.2: no shadow ray in native exact mode), keeping
+    the values, links, drivers and keyframes of every node that uses it (the
+    sidebar's Upgrade Groups; ``load_post`` logs a warning where a file has
+    such groups).  Returns the names of the groups rebuilt."""
+    outdated = groups.find_outdated_groups()
+    for tree in outdated:
+        groups.upgrade_group(tree)
+    return [tree.name for tree in outdated]
 
 
 # ---------------------------------------------------------------------------

@@ -686,6 +686,25 @@ def on_load_post(*_args):
         message = check_scene(scene)
         if message:
             log.warning(message)
+    message = outdated_groups_message()
+    if message:
+        log.warning(message)
+
+
+def outdated_groups_message():
+    """What ``load_post`` logs where the file holds groups an older version
+    built or planned for another Blender's native nodes (None: none)."""
+    outdated = groups.find_outdated_groups()
+    if not outdated:
+        return None
+    other = sum(map(groups.built_for_another_blender, outdated))
+    older = len(outdated) - other
+    why = "; ".join(
+        ([f"{older} by an older version of the extension"] if older else [])
+        + ([f"{other} for another Blender version's native nodes (4.5's cast no shadow in "
+            "exact mode)"] if other else []))
+    return (f"Reflection Models: node groups of this file were built {why}: the sidebar's "
+            "Upgrade Groups or api.upgrade_groups() rebuilds them, keeping values and links")
 
 
 @persistent

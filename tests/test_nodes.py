@@ -1385,6 +1385,37 @@ def test_load_and_render_handlers_warn_when_osl_is_off(ui, bpy, tmp_path, caplog
     bpy_env.reset_scene()
 
 
+def test_load_warns_of_groups_to_upgrade_and_the_api_upgrades_them(ui, bpy, tmp_path, caplog):
+    """A file holding groups an older version built, or planned for another
+    Blender's native nodes, says so in the log when it is opened (a render
+    farm's script sees it); api.upgrade_groups() rebuilds them."""
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    old = nodes.ensure_group("lambert")
+    other = nodes.ensure_group("phong")
+    mat = new_material(bpy)
+    add_group_node(mat, old)
+    add_group_node(mat, other)
+    old["rm_version"] = nodes.NODES_VERSION - 1
+    here = dict(other["rm_native"])
+    other["rm_native"] = {**here, "exact_conductor": not here["exact_conductor"]}
+    names = sorted([old.name, other.name])
+    path = tmp_path / "outdated.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+
+    with caplog.at_level(logging.WARNING):
+        bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+    (message,) = [r.getMessage() for r in caplog.records if "Upgrade Groups" in r.getMessage()]
+    assert "1 by an older version" in message and "1 for another Blender" in message
+    assert sorted(api.upgrade_groups()) == names
+    assert not nodes.find_outdated_groups() and api.upgrade_groups() == []
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        ui.on_load_post()
+    assert not caplog.records
+    bpy_env.reset_scene()
+
+
 def _names(items):
     return sorted(x if isinstance(x, str) else x.__name__ for x in items)
 
