@@ -43,12 +43,15 @@ Imports bpy.
 from __future__ import annotations
 
 import contextlib
+import logging
 import re
 
 import bpy
 
 from . import groups
 from .core import catalogue, variants
+
+log = logging.getLogger(__name__)
 
 SUPPORTED_LIGHTS = ("SUN", "POINT", "SPOT")
 LIGHT_NAMES = tuple(p.name for p in catalogue.LIGHT_INPUTS)
@@ -421,11 +424,29 @@ def deferred_linking():
     _DEFERRED[0] += 1
     try:
         yield
-    finally:
-        _DEFERRED[0] -= 1
-        if not _DEFERRED[0] and _DEFERRED[1]:
-            _DEFERRED[1] = False
-            sync_light_linking()
+    except BaseException as exc:
+        _leave_deferred(exc)
+        raise
+    _leave_deferred(None)
+
+
+def _leave_deferred(exc) -> None:
+    """Leaving a :func:`deferred_linking` block: the light linking brought up
+    to date if it is the outermost and something changed.  Where the block
+    is left by ``exc``, an update that fails is logged rather than raised,
+    so that the caller sees ``exc``, its own error."""
+    _DEFERRED[0] -= 1
+    if _DEFERRED[0] or not _DEFERRED[1]:
+        return
+    _DEFERRED[1] = False
+    if exc is None:
+        sync_light_linking()
+        return
+    try:
+        sync_light_linking()
+    except Exception as failure:  # the block's own exception goes on
+        log.warning("Reflection Models: could not update the light linking after %r: %s",
+                    exc, failure)
 
 
 def _unbind(node) -> None:

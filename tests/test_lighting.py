@@ -31,6 +31,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 
@@ -968,12 +970,14 @@ def test_the_record_of_added_exclusions_follows_a_renamed_object(api, bpy):
         bpy.data.batch_remove([mat, plain, users])
 
 
-def test_a_deferred_block_brings_the_light_linking_up_to_date_once_at_its_end(api, bpy):
+def test_a_deferred_block_brings_the_light_linking_up_to_date_once_at_its_end(api, bpy,
+                                                                             caplog):
     """Inside ``api.deferred_light_linking()`` binding, mode changes and
     unbinding leave the light linking alone (each update reads every hybrid
     node: n bindings one by one read n times n); leaving the outermost
     block, by an exception too, brings it to what binding one by one
-    gives."""
+    gives; where the block is left by an exception and that update fails,
+    the block's exception reaches the caller and the failure is logged."""
     from addon import lighting as linking
     scene, sun, mat, node, objects = _two_hybrid_objects(api, bpy, "rm_ll_defer")
     mat2 = _material("rm_ll_defer_2")
@@ -1002,8 +1006,25 @@ def test_a_deferred_block_brings_the_light_linking_up_to_date_once_at_its_end(ap
         with api.deferred_light_linking():  # nothing changed: no update
             api.bound_lights(node)
         assert len(calls) == 2 and linking._DEFERRED == [0, False]
+
+        def failing(**kw):
+            calls.append(kw)
+            raise RuntimeError("the update failed")
+        linking.sync_light_linking = failing
+        with caplog.at_level(logging.WARNING), pytest.raises(KeyError):
+            with api.deferred_light_linking():  # the block's own error reaches the caller
+                api.bind_light(node2, sun)
+                raise KeyError("an error inside the block")
+        assert len(calls) == 3 and linking._DEFERRED == [0, False]
+        assert any("could not update the light linking" in r.getMessage()
+                   for r in caplog.records)
+        with pytest.raises(RuntimeError):  # left as usual: the update's error is raised
+            with api.deferred_light_linking():
+                api.unbind_light(node2)
+        assert len(calls) == 4 and linking._DEFERRED == [0, False]
+        linking.sync_light_linking = lambda **kw: calls.append(kw) or real(**kw)
         api.unbind_light(node)  # outside a block: at once
-        assert len(calls) == 3 and not any(_excluded(sun, obj) for obj in objects)
+        assert len(calls) == 5 and not any(_excluded(sun, obj) for obj in objects)
     finally:
         linking.sync_light_linking = real
         api.unbind_light(node)
