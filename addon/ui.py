@@ -701,8 +701,8 @@ def outdated_groups_message():
     older = len(outdated) - other
     why = "; ".join(
         ([f"{older} by an older version of the extension"] if older else [])
-        + ([f"{other} for another Blender version's native nodes (4.5's cast no shadow in "
-            "exact mode)"] if other else []))
+        + ([f"{other} for another Blender version's native nodes (its shadow ray and "
+            "conductor Fresnel)"] if other else []))
     return (f"Reflection Models: node groups of this file were built {why}: the sidebar's "
             "Upgrade Groups or api.upgrade_groups() rebuilds them, keeping values and links")
 

@@ -3,11 +3,12 @@
 view factor, measured over the hemisphere: pure numpy, no Blender.
 
 Blender 4.5's Metallic BSDF (physical conductor) takes an approximation of
-the conductor Fresnel (:func:`older_fresnel`; rendered in 4.5.15 it equals
-this formula to 1e-6 at half-angles 10-70 deg, indices 1.2-2.4 with k = 0,
-gold's green channel (0.424 + 2.35i) and 1.5 + 0.3i), and the native nodes carry a dielectric's Fresnel
-through it too (k = 0).  Blender 4.5's native BSDF output multiplies the
-closure's weight by the exact Fresnel over the approximation at the view
+the conductor Fresnel (:func:`older_fresnel`; rendered by hand in 4.5.15,
+it equals this formula to 1e-6 at half-angles 10-70 deg, indices 1.2-2.4
+with k = 0, gold's green channel (0.424 + 2.35i) and 1.5 + 0.3i), and the
+native nodes carry a dielectric's Fresnel through it too (k = 0).  There
+the native BSDF output multiplies the closure's weight by the exact
+Fresnel over the approximation at the view
 (``addon/backends/native/emit.py``, ``older_fresnel_factor``): exact at the
 lobe's mirror direction, approximate away from it.  :func:`table` measures
 both over the hemisphere as the fitter does (views every 2.5 deg, lights
