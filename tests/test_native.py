@@ -249,6 +249,18 @@ def _shadow_scene(bpy, api, osl):
     return scene, mat
 
 
+def _shadow_regions():
+    """(inside, outside, lit value): the pixels surely in the occluder's
+    shadow and surely out of it (1.5 px from its edge), and what a lit pixel
+    of the plane shows (the reference)."""
+    X, Y = _pixel_centres()
+    margin = 1.5 * PIXEL
+    inside = (np.abs(X) < HALF - margin) & (np.abs(Y) < HALF - margin)
+    outside = (np.abs(X) > HALF + margin) | (np.abs(Y) > HALF + margin)
+    assert inside.sum() > 50 and outside.sum() > 500
+    return inside, outside, float(R.shade("lambert", SUN[None], np.array([[0.0, 0.0, 1.0]]))[0, 0])
+
+
 @pytest.mark.parametrize("osl", [False, True], ids=["native", "osl"])
 def test_the_shadow_falls_where_the_geometry_puts_it(api, bpy, osl):
     from addon.backends.native.build import has_raycast
@@ -258,12 +270,7 @@ def test_the_shadow_falls_where_the_geometry_puts_it(api, bpy, osl):
     # the bound sun's Cast Shadow off: the Shadows input follows it
     next(o for o in scene.objects if o.type == 'LIGHT').data.use_shadow = False
     unshadowed = _rendered(bpy, scene, mat)
-    X, Y = _pixel_centres()
-    margin = 1.5 * PIXEL
-    inside = (np.abs(X) < HALF - margin) & (np.abs(Y) < HALF - margin)
-    outside = (np.abs(X) > HALF + margin) | (np.abs(Y) > HALF + margin)
-    lit_value = float(R.shade("lambert", SUN[None], np.array([[0.0, 0.0, 1.0]]))[0, 0])
-    assert inside.sum() > 50 and outside.sum() > 500
+    inside, outside, lit_value = _shadow_regions()
     # outside the shadow: the model (float32)
     assert np.allclose(img[outside], lit_value, rtol=1e-4, atol=0)
     if osl or has_raycast():
@@ -301,12 +308,7 @@ def test_a_file_made_in_the_other_series_is_built_again_for_this_one(api, bpy):
         img, _seconds = common.render_image(scene)
     finally:
         session.reset_scene()
-    X, Y = _pixel_centres()
-    margin = 1.5 * PIXEL
-    inside = (np.abs(X) < HALF - margin) & (np.abs(Y) < HALF - margin)
-    outside = (np.abs(X) > HALF + margin) | (np.abs(Y) > HALF + margin)
-    lit_value = float(R.shade("lambert", SUN[None], np.array([[0.0, 0.0, 1.0]]))[0, 0])
-    assert inside.sum() > 50 and outside.sum() > 500
+    inside, outside, lit_value = _shadow_regions()
     assert np.allclose(img[outside], lit_value, rtol=1e-4, atol=0)  # float32
     if has_raycast():
         assert np.allclose(before[inside], lit_value, rtol=1e-4, atol=0)  # 4.5's: no shadow
