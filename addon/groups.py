@@ -159,6 +159,15 @@ def find_outdated_groups() -> list:
             if t.library is None and rm_info(t) is not None and is_outdated(t)]
 
 
+def outdated_counts(outdated=None) -> tuple:
+    """``(older, other)``: of the outdated groups (``outdated``, else
+    :func:`find_outdated_groups`), how many an older version built and how
+    many were planned for another Blender's native nodes (counted there only)."""
+    outdated = find_outdated_groups() if outdated is None else outdated
+    other = sum(map(built_for_another_blender, outdated))
+    return len(outdated) - other, other
+
+
 def is_outdated(tree) -> bool:
     """Whether the RM group ``tree`` is to be built again: by an older
     :data:`NODES_VERSION`, or for another Blender's native nodes."""

@@ -439,12 +439,11 @@ def _leave_deferred(exc) -> None:
     if _DEFERRED[0] or not _DEFERRED[1]:
         return
     _DEFERRED[1] = False
-    if exc is None:
-        sync_light_linking()
-        return
     try:
         sync_light_linking()
-    except Exception as failure:  # the block's own exception goes on
+    except Exception as failure:
+        if exc is None:
+            raise
         log.warning("Reflection Models: could not update the light linking after %r: %s",
                     exc, failure)
 

@@ -452,10 +452,9 @@ class NODE_PT_rm_sidebar(bpy.types.Panel):
         outdated = groups.find_outdated_groups()
         if outdated:
             box = layout.box()
-            other = sum(map(groups.built_for_another_blender, outdated))
-            if len(outdated) > other:
-                box.label(text=f"{len(outdated) - other} group(s) from an older version",
-                          icon='INFO')
+            older, other = groups.outdated_counts(outdated)
+            if older:
+                box.label(text=f"{older} group(s) from an older version", icon='INFO')
             if other:
                 box.label(text=f"{other} group(s) built for another Blender's native nodes",
                           icon='INFO')
@@ -694,11 +693,9 @@ def on_load_post(*_args):
 def outdated_groups_message():
     """What ``load_post`` logs where the file holds groups an older version
     built or planned for another Blender's native nodes (None: none)."""
-    outdated = groups.find_outdated_groups()
-    if not outdated:
+    older, other = groups.outdated_counts()
+    if not older and not other:
         return None
-    other = sum(map(groups.built_for_another_blender, outdated))
-    older = len(outdated) - other
     why = "; ".join(
         ([f"{older} by an older version of the extension"] if older else [])
         + ([f"{other} for another Blender version's native nodes (its shadow ray and "

@@ -254,3 +254,6 @@ def test_the_installed_zip_works_without_the_source_tree(extension_zip, tmp_path
         rendered = report[f"osl_{osl}"]
         assert rendered["finite"] and len(rendered["centres"]) == report["nodes"]
         assert min(rendered["centres"].values()) > 0.0, rendered["centres"]
+    assert installed_check.problems(report) == []  # what make demo judges by
+    unlit = {**report, "osl_True": {**report["osl_True"], "centres": {"lambert exact": 0.0}}}
+    assert installed_check.problems(unlit) == ["OSL on: lambert exact unlit"]

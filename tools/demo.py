@@ -105,11 +105,9 @@ def run(args):
     from verification.harness import installed_check
     with tempfile.TemporaryDirectory(prefix="rm-installed-") as work:
         alone = installed_check.run(zip_path, work)  # raises if it fails
-    unlit = [key for osl in (False, True) for key, value in alone[f"osl_{osl}"]["centres"].items()
-             if not value > 0.0]
-    if alone["addon_importable"] or unlit or not all(alone[f"osl_{osl}"]["finite"]
-                                                     for osl in (False, True)):
-        raise RuntimeError(f"the installed extension, away from the source tree: {alone}")
+    if installed_check.problems(alone):
+        raise RuntimeError("the installed extension, away from the source tree: "
+                           + "; ".join(installed_check.problems(alone)))
     log(f"installed again where the source tree is out of reach: {alone['nodes']} nodes "
         "(every model and preset, both modes) rendered lit and finite, OSL off and on")
 

@@ -42,6 +42,19 @@ def run(zip_path, work, timeout=600) -> dict:
     return json.loads(lines[-1][len(PREFIX):])
 
 
+def problems(report) -> list:
+    """What is wrong in a :func:`run` report (empty: nothing): the source
+    tree within reach, a render not finite, a node's tile unlit."""
+    out = ["the source tree's addon package is importable"] if report["addon_importable"] else []
+    for osl in (False, True):
+        rendered = report[f"osl_{osl}"]
+        if not rendered["finite"]:
+            out.append(f"OSL {'on' if osl else 'off'}: pixels not finite")
+        out += [f"OSL {'on' if osl else 'off'}: {key} unlit"
+                for key, value in rendered["centres"].items() if not value > 0.0]
+    return out
+
+
 def main(zip_path, work):
     os.environ["BLENDER_USER_RESOURCES"] = os.path.join(work, "resources")
     import bpy

@@ -46,6 +46,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ...core.formulas import expr as E
+from ...core.formulas import library as L
 
 FLT_MAX = 3.4028234663852886e38
 RAY_OFFSET = 1e-4
@@ -359,19 +360,15 @@ class Planner:
                              {"Color": w, "RoughnessU": ru, "RoughnessV": rv, "Tangent": t,
                               "Offset": offset})
         if name in ("conductor", "dielectric"):
-            dist = GLOSSY[params["distribution"]]
-            zero_k = name == "dielectric" or _is_zero(e.args[6])
-            corr = None
-            if not self.exact_conductor and not (zero_k and dist == "GGX"):
-                # 4.5's conductor Fresnel, and no Principled lobe for it: the weight corrected
-                corr = self.ref(older_fresnel_factor(e))
             if name == "conductor":
                 n, t, ax, ay, ior, k = args
             else:  # a dielectric is a conductor of extinction 0 (F at total internal reflection: 1)
                 n, t, ax, ay, ior = args
                 ior = self.node("ShaderNodeCombineXYZ", {}, {0: ior, 1: ior, 2: ior})
                 k = ("const", (0.0, 0.0, 0.0))
-            return self._metallic(w, n, None if isotropic else t, ax, ay, ior, k, dist, corr)
+            return self._metallic(w, n, None if isotropic else t, ax, ay, ior, k,
+                                  GLOSSY[params["distribution"]],
+                                  lambda: self.ref(older_fresnel_factor(e)))
         raise ValueError(f"no native closure {name!r}")
 
     @staticmethod
@@ -421,7 +418,7 @@ class Planner:
                             "IOR": ior, **inputs})
         return scaled(shader, size)
 
-    def _metallic(self, w, n, t, ax, ay, ior, k, dist, corr=None):
+    def _metallic(self, w, n, t, ax, ay, ior, k, dist, older_factor=None):
         """Metallic BSDF (physical conductor): roughness sqrt(sqrt(ax ay)),
         anisotropy 1 - (small/large)/0.9 ... clamped to a ratio of 10, and a
         quarter turn of the tangent when ax < ay (its anisotropy only
@@ -430,8 +427,10 @@ class Planner:
         a closure of that channel only.  Where this Blender's conductor
         Fresnel is an older approximation (4.5), a dielectric's GGX lobe is
         :meth:`_principled_dielectric` instead (one lobe where the index's
-        three channels are equal, else one per channel).  ``corr``: a factor
-        of every channel's weight (:func:`older_fresnel_factor`), or None."""
+        three channels are equal, else one per channel), and the Metallic
+        BSDF's weight takes ``older_factor()`` as a factor (the closure's
+        :func:`older_fresnel_factor`, planned only there)."""
+        corr = None  # the factor of every channel's weight, where there is one
         if t is None:  # isotropic (``ax`` is ``ay``): no anisotropy, no tangent
             shape = {"Roughness": self.math("SQRT", ax), "Normal": n}
         else:
@@ -479,7 +478,10 @@ class Planner:
             return total
 
         dielectric = k[0] == "const" and not any(k[1] if isinstance(k[1], tuple) else (k[1],))
-        if self.exact_conductor or not dielectric or dist != "GGX":
+        if self.exact_conductor:
+            return metallic()
+        if not dielectric or dist != "GGX":  # 4.5's conductor Fresnel: the weight corrected
+            corr = older_factor() if older_factor is not None else None
             return metallic()
         # the Principled BSDF's exact dielectric lobe: one where the three channels have
         # one index, else one lobe per channel (three closures)
@@ -530,8 +532,6 @@ def older_fresnel_factor(e):
     one index), else the one nearest 1 on the side where they all lie (1
     where they lie on both), so that at the mirror direction no channel's
     Fresnel is further off than without it."""
-    from ...core.formulas import library as L
-
     normal, ior = e.args[1], e.args[5]
     k = e.args[6] if e.data[0] == "conductor" else 0.0
     c = E.clamp(E.dot(normal, E.geometry("I")), 0.0, 1.0)
