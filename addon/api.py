@@ -58,7 +58,7 @@ __all__ = ["add_model", "set_params", "set_mode", "get_mode", "bind_light", "unb
            "bound_light", "bound_lights", "light_drivers", "sync_light_linking",
            "deferred_light_linking", "enable_osl",
            "osl_status", "rendering_backend", "ensure_groups", "upgrade_groups", "apply_metal",
-           "MODES", "METALS", "BACKENDS"]
+           "use_strand_tangent", "MODES", "METALS", "BACKENDS"]
 
 
 # ---------------------------------------------------------------------------
@@ -310,6 +310,42 @@ def apply_metal(node, metal: str):
         raise ValueError(f"metals apply to microfacet nodes, not {model_id!r}")
     n, k = METALS[metal]
     return set_params(node, fresnel="conductor", ior=n, k=k)
+
+
+STRAND_TANGENT_LABEL = "Strand Direction (Geometry Tangent)"
+
+
+def use_strand_tangent(node):
+    """Feed the Tangent input of RM group ``node`` from a Geometry node's
+    Tangent output: on hair curves the strand's direction
+    (``normalize(dPdu)``), which Kajiya-Kay's fibres and the anisotropic
+    lobes need there.  The input's default, the UV map's tangent, is 0 on
+    curves (measured in Cycles with OSL on and off and in EEVEE), so
+    unconnected the fibre falls back to an axis across the strands.  On a
+    mesh the Geometry node's Tangent runs about the generated coordinates'
+    Z axis (and EEVEE reads one more attribute for it), so the link is
+    left to the user rather than made by every group.  Replaces what fed
+    the input; calling it again changes nothing.  Returns the Geometry
+    node.  Raises ValueError for a node whose variant has no Tangent input
+    (only Kajiya-Kay, Ward and the microfacet model's alpha_x/alpha_y
+    width have one)."""
+    _rm_node_info(node)
+    try:
+        socket = groups.input_socket(node, "tangent")
+    except KeyError:
+        raise ValueError(f"{node.name!r} has no Tangent input; the variants with one: "
+                         "kajiya_kay, ward, microfacet with alpha_x and alpha_y") from None
+    tree = node.id_data
+    for link in socket.links:
+        source = link.from_node
+        if source.bl_idname == "ShaderNodeNewGeometry" and link.from_socket.name == "Tangent":
+            return source
+    geometry = tree.nodes.new("ShaderNodeNewGeometry")
+    geometry.label = STRAND_TANGENT_LABEL
+    geometry.location = (node.location.x - 220.0, node.location.y - 60.0)
+    geometry.parent = node.parent
+    tree.links.new(geometry.outputs["Tangent"], socket)
+    return geometry
 
 
 def _material_output(ntree):

@@ -96,6 +96,9 @@ class NODE_OT_rm_add_model(bpy.types.Operator):
         node.location = space.cursor_location
         node.select = True
         tree.nodes.active = node
+        obj = getattr(context, "object", None)
+        if getattr(obj, "type", None) == 'CURVES' and "tangent" in groups.input_sockets(node):
+            api.use_strand_tangent(node)  # hair: the UV tangent is 0 there
         return {'FINISHED'}
 
     def invoke(self, context, event):
@@ -284,6 +287,37 @@ class NODE_OT_rm_sync_light_linking(bpy.types.Operator):
                     + (f"; {rebound} light(s) bound again for their lamp's new type, "
                        "collections or light data" if rebound else ""))
         return {'FINISHED'}
+
+
+class NODE_OT_rm_use_strand_tangent(bpy.types.Operator):
+    bl_idname = "node.rm_use_strand_tangent"
+    bl_label = "Use Strand Direction"
+    bl_description = ("Feed the active node's Tangent input from the Geometry node's Tangent: "
+                      "on hair curves the strand's direction (the default, the UV map's "
+                      "tangent, is 0 there)")
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        node = _active_rm_node(context)
+        return node is not None and "tangent" in groups.input_sockets(node)
+
+    def execute(self, context):
+        api.use_strand_tangent(_active_rm_node(context))
+        return {'FINISHED'}
+
+
+def unfed_tangent_on_curves(node) -> bool:
+    """Whether ``node`` has a Tangent input left unconnected while a hair
+    Curves object renders its material: there the default, the UV map's
+    tangent, is 0."""
+    socket = groups.input_sockets(node).get("tangent")
+    if socket is None or socket.is_linked:
+        return False
+    materials = set(api._materials_of(node))
+    return any(obj.type == 'CURVES' and any(slot.material in materials
+                                            for slot in obj.material_slots)
+               for obj in bpy.data.objects)
 
 
 class NODE_OT_rm_unbind_light(bpy.types.Operator):
@@ -499,6 +533,10 @@ def _draw_node(layout, context, node):
     if model_id == "microfacet":
         box.operator_menu_enum(NODE_OT_rm_apply_metal.bl_idname, "metal", text="Metal Preset",
                                icon='MATERIAL')
+    if unfed_tangent_on_curves(node):
+        box.label(text="On hair curves the unconnected Tangent is 0 (no UV map there)",
+                  icon='ERROR')
+        box.operator(NODE_OT_rm_use_strand_tangent.bl_idname, icon='CURVES')
     box = layout.box()
     mode = api.get_mode(node)
     row = box.row()
@@ -886,6 +924,7 @@ CLASSES = (
     NODE_OT_rm_set_mode,
     NODE_OT_rm_sync_light_linking,
     NODE_OT_rm_unbind_light,
+    NODE_OT_rm_use_strand_tangent,
     NODE_OT_rm_apply_metal,
     NODE_OT_rm_upgrade_groups,
     NODE_MT_rm_add,

@@ -474,6 +474,28 @@ def test_bound_light_survives_save_and_reload_in_a_fresh_process(api, bpy, tmp_p
     assert not common.read_exr(out)[moved.mask].any()
 
 
+def test_use_strand_tangent_feeds_the_tangent_input_once(api, bpy):
+    """The Geometry node's Tangent into the Tangent input (hair curves:
+    tests/test_anisotropy.py renders it), once however often it is called,
+    replacing what fed the input; a node without a Tangent input, or not
+    of the extension, raises ValueError naming the variants that have one."""
+    from addon import groups as nodes
+    mat = new_material(bpy)
+    tree = mat.node_tree
+    node = api.add_model(mat, "microfacet", distribution="beckmann", alpha_x=0.2, alpha_y=0.4)
+    value = tree.nodes.new("ShaderNodeCombineXYZ")
+    tree.links.new(value.outputs[0], nodes.input_socket(node, "tangent"))
+    geometry = api.use_strand_tangent(node)
+    assert api.use_strand_tangent(node) == geometry
+    (link,) = nodes.input_socket(node, "tangent").links
+    assert (link.from_node, link.from_socket.name) == (geometry, "Tangent")
+    assert sum(n.bl_idname == "ShaderNodeNewGeometry" for n in tree.nodes) == 1
+    with pytest.raises(ValueError, match="kajiya_kay, ward, microfacet with alpha_x"):
+        api.use_strand_tangent(api.add_model(mat, "microfacet", alpha=0.2))
+    with pytest.raises(ValueError, match="not a Reflection Models node"):
+        api.use_strand_tangent(value)
+
+
 def test_apply_metal_makes_a_conductor_with_the_measured_index(api, bpy):
     """The metal preset switches the variant to the conductor Fresnel, sets
     n and k, and the exact render equals the reference for that metal."""

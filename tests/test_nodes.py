@@ -691,6 +691,59 @@ def test_add_operator_places_a_selected_group_node_at_the_cursor(ui, bpy):
     assert "nope" in reports[-1][1]
 
 
+def test_hair_curves_get_the_strand_direction_from_the_add_menu_and_the_sidebar(ui, bpy):
+    """On a hair Curves object the Tangent input's default (the UV map's
+    tangent) is 0: adding a node with a tangent while a Curves object is
+    active links the Geometry node's Tangent to it; a node left unconnected
+    in a material a Curves object renders gets a sidebar label and the
+    button that links it; a mesh's material gets neither."""
+    base = ui.__name__.rsplit(".", 1)[0]
+    nodes = importlib.import_module(base + ".groups")
+    hair = bpy.data.hair_curves.new("Hair")
+    hair.add_curves([2])
+    mat = new_material(bpy, "HairMat")
+    hair.materials.append(mat)
+    curves = bpy.data.objects.new("Hair", hair)
+    bpy.context.scene.collection.objects.link(curves)
+    space = SimpleNamespace(type="NODE_EDITOR", tree_type="ShaderNodeTree",
+                            edit_tree=mat.node_tree, cursor_location=(0.0, 0.0))
+
+    def add(model, obj):
+        before = set(mat.node_tree.nodes)
+        fake = SimpleNamespace(model=model, distribution="", report=lambda *a: None)
+        ctx = SimpleNamespace(space_data=space, object=obj)
+        assert bpy.types.NODE_OT_rm_add_model.execute(fake, ctx) == {"FINISHED"}
+        (node,) = [n for n in set(mat.node_tree.nodes) - before if n.type == 'GROUP']
+        return node
+
+    def strand_fed(node):
+        links = nodes.input_socket(node, "tangent").links
+        return len(links) == 1 and links[0].from_node.bl_idname == "ShaderNodeNewGeometry" \
+            and links[0].from_socket.name == "Tangent"
+
+    assert strand_fed(add("kajiya_kay", curves))
+    assert "tangent" not in nodes.input_sockets(add("lambert", curves))  # nothing to feed
+
+    hint = "On hair curves the unconnected Tangent is 0 (no UV map there)"
+    node = add("ward", None)
+    assert not strand_fed(node)
+    ctx = node_context(bpy.context.scene, node)
+    assert hint in sidebar_labels(bpy, ctx)
+    assert bpy.types.NODE_OT_rm_use_strand_tangent.poll(ctx)
+    assert bpy.types.NODE_OT_rm_use_strand_tangent.execute(SimpleNamespace(), ctx) == \
+        {"FINISHED"}
+    assert strand_fed(node) and hint not in sidebar_labels(bpy, ctx)
+
+    mesh_mat = new_material(bpy, "MeshMat")
+    mesh = bpy.data.objects.new("Mesh", bpy.data.meshes.new("Mesh"))
+    mesh.data.materials.append(mesh_mat)
+    bpy.context.scene.collection.objects.link(mesh)
+    other = add_group_node(mesh_mat, nodes.ensure_group("kajiya_kay"))
+    assert hint not in sidebar_labels(bpy, node_context(bpy.context.scene, other))
+    assert not bpy.types.NODE_OT_rm_use_strand_tangent.poll(
+        node_context(bpy.context.scene, add_group_node(mesh_mat, nodes.ensure_group("phong"))))
+
+
 def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
     nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
     scene = bpy.context.scene

@@ -379,7 +379,8 @@ GEOMETRY_INPUTS = (
     Param("shading_normal", "Normal", "normal", (0.0, 0.0, 0.0),
           "Shading normal; unconnected (zero) uses the surface normal", panel="Geometry"),
     Param("tangent", "Tangent", "normal", (0.0, 0.0, 0.0),
-          "Tangent (fibre or brush direction); unconnected (zero) uses the UV tangent",
+          "Tangent (fibre or brush direction); unconnected (zero) uses the UV tangent, "
+          "which is zero on hair curves: there link Geometry > Tangent",
           panel="Geometry"),
     Param("tangent_rotation", "Tangent Rotation", "angle", 0.0,
           "Rotation of the tangent about the normal", minimum=-6.283185307179586,

@@ -344,6 +344,43 @@ def hair_run(*, resolution=(96, 96), strength=2.0, path=None, via=None):
 
 
 
+def hair_strand_tangent_run(backend, *, strand=True, resolution=(96, 96), strength=2.0):
+    """Kajiya-Kay exact through the api on the fan of straight strands,
+    rendered with ``backend`` ("osl", "svm" or "eevee",
+    ``verify.use_backend``), against the reference with each strand's known
+    direction.  ``strand``: the Tangent input fed by
+    ``api.use_strand_tangent``; else left unconnected (the group's default,
+    the UV tangent, 0 on curves).  Returns ``(comparison, image, expected,
+    mask)``, the comparison (``common.compare``) with ``max_abs_over_peak``."""
+    from addon import api
+
+    from . import verify
+
+    view = common.normalize(HAIR_VIEW)
+    sun = common.normalize(HAIR_SUN)
+    ortho = 2.4
+    name = f"aniso_hair_strand_{backend}_{int(strand)}"
+    scene, basis = new_scene(name, view_dir=view, ortho_scale=ortho, resolution=resolution)
+    scene.cycles_curves.shape = 'THICK'
+    dirs, strands = hair_fan()
+    radius = 0.04
+    hc = hair_curves(name, strands, radius)
+    light = {"light_direction": sun, "shadows": 0.0, "light_strength": strength}
+    mat, node = make_material(name, "kajiya_kay", KK, light=light, via="api")
+    if strand:
+        api.use_strand_tangent(node)
+    link_object(scene, name, hc, mat)
+    verify.use_backend(scene, backend, api)
+    img, _seconds = render_scene(scene)
+    idx = segment_mask(basis, resolution, ortho, strands, radius)
+    mask = idx >= 0
+    exp = np.zeros(mask.shape + (3,))
+    exp[mask] = _kk(sun, view, dirs[idx[mask]], KK) * strength
+    cmp = common.compare(img, exp, mask)
+    cmp.update(max_abs_over_peak=cmp["max_abs_error"] / cmp["peak"])
+    return cmp, img, exp, mask
+
+
 def hair_demo(*, resolution=(120, 120)):
     """Black and brown hair (Kajiya-Kay exact, presets KK_BLACK / KK_BROWN,
     shadows on) on a lock of wavy strands.  Returns ``(images, numbers)``:
