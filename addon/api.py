@@ -208,13 +208,6 @@ def _check_mode(mode):
                          + ", ".join(repr(m) for m in MODES))
 
 
-def _materials_of(node) -> list:
-    """The materials whose tree holds ``node``, directly or inside groups
-    of the user's."""
-    return [mat for mat in bpy.data.materials
-            if any(other == node for other in groups.rm_nodes_in(mat.node_tree))]
-
-
 HYBRID_TAG = "rm_hybrid_of"
 
 
@@ -287,7 +280,7 @@ def set_mode(node, mode: str):
     output goes nowhere and the group has no free Shader output."""
     _rm_node_info(node)
     _check_mode(mode)
-    _wire(node, mode, _materials_of(node))
+    _wire(node, mode, groups.materials_of(node))
     lighting.linking_changed()
     return node
 

@@ -224,6 +224,13 @@ def rm_nodes_in(tree, seen=None):
                 yield from rm_nodes_in(node.node_tree, seen)
 
 
+def materials_of(node) -> list:
+    """The materials whose tree holds RM group ``node``, directly or inside
+    groups of the user's."""
+    return [mat for mat in bpy.data.materials
+            if any(other == node for other in rm_nodes_in(mat.node_tree))]
+
+
 def _tree_uses_rm(tree, seen) -> bool:
     return any(True for _node in rm_nodes_in(tree, seen))
 
@@ -716,6 +723,12 @@ def input_sockets(node) -> dict:
     for socket in node.inputs:
         out.setdefault(socket_key(node, socket, keys)[3:], socket)
     return out
+
+
+def has_tangent(node) -> bool:
+    """Whether RM group ``node``'s variant has a Tangent input (Kajiya-Kay,
+    Ward, the microfacet widths alpha_x and alpha_y)."""
+    return "tangent" in input_sockets(node)
 
 
 def _socket(sockets, node, want):

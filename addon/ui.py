@@ -97,7 +97,7 @@ class NODE_OT_rm_add_model(bpy.types.Operator):
         node.select = True
         tree.nodes.active = node
         obj = getattr(context, "object", None)
-        if getattr(obj, "type", None) == 'CURVES' and "tangent" in groups.input_sockets(node):
+        if getattr(obj, "type", None) == 'CURVES' and groups.has_tangent(node):
             api.use_strand_tangent(node)  # hair: the UV tangent is 0 there
         return {'FINISHED'}
 
@@ -300,7 +300,7 @@ class NODE_OT_rm_use_strand_tangent(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         node = _active_rm_node(context)
-        return node is not None and "tangent" in groups.input_sockets(node)
+        return node is not None and groups.has_tangent(node)
 
     def execute(self, context):
         api.use_strand_tangent(_active_rm_node(context))
@@ -314,7 +314,7 @@ def unfed_tangent_on_curves(node) -> bool:
     socket = groups.input_sockets(node).get("tangent")
     if socket is None or socket.is_linked:
         return False
-    materials = set(api._materials_of(node))
+    materials = set(groups.materials_of(node))
     return any(obj.type == 'CURVES' and any(slot.material in materials
                                             for slot in obj.material_slots)
                for obj in bpy.data.objects)

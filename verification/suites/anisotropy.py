@@ -253,20 +253,41 @@ def disc_run(model="ward", *, resolution=96, tangent_rotation=0.0, path=None):
     return cmp, img, exp, mask
 
 
+class _HairFan:
+    """The fan of straight strands (:func:`hair_fan`) seen along
+    ``HAIR_VIEW`` under the sun ``HAIR_SUN``: a new scene ``name`` with the
+    curves (thick, unlinked), and Kajiya-Kay's expected Direct per strand."""
+
+    ORTHO = 2.4
+    RADIUS = 0.04
+
+    def __init__(self, name, resolution):
+        self.view = common.normalize(HAIR_VIEW)
+        self.sun = common.normalize(HAIR_SUN)
+        self.resolution = resolution
+        self.scene, self.basis = new_scene(name, view_dir=self.view, ortho_scale=self.ORTHO,
+                                           resolution=resolution)
+        self.scene.cycles_curves.shape = 'THICK'
+        self.dirs, self.strands = hair_fan()
+        self.curves = hair_curves(name + "_fan", self.strands, self.RADIUS)
+
+    def expected(self, strength):
+        """``(index, mask, expected)``: the strand each pixel sees (-1:
+        none), the pixels on a strand, and Kajiya-Kay (``KK``) there with
+        the strand's direction, times ``strength``."""
+        idx = segment_mask(self.basis, self.resolution, self.ORTHO, self.strands, self.RADIUS)
+        mask = idx >= 0
+        exp = np.zeros(mask.shape + (3,))
+        exp[mask] = _kk(self.sun, self.view, self.dirs[idx[mask]], KK) * strength
+        return idx, mask, exp
 
 
 def hair_run(*, resolution=(96, 96), strength=2.0, path=None, via=None):
     """Kajiya-Kay exact on a fan of straight hair strands: Direct vs the
     reference per strand, Diffuse + Specular = Color / strength, the
     curve tangent the Geometry node gives, and the highlight's |T.H|."""
-    view = common.normalize(HAIR_VIEW)
-    sun = common.normalize(HAIR_SUN)
-    ortho = 2.4
-    scene, basis = new_scene("aniso_hair", view_dir=view, ortho_scale=ortho, resolution=resolution)
-    scene.cycles_curves.shape = 'THICK'
-    dirs, strands = hair_fan()
-    radius = 0.04
-    hc = hair_curves("aniso_hair_fan", strands, radius)
+    fan = _HairFan("aniso_hair", resolution)
+    view, sun, scene, hc = fan.view, fan.sun, fan.scene, fan.curves
     # Through the api the Light inputs follow a sun lamp (bind_light); the
     # lamp itself lights nothing here (the outputs are emissions).
     lamp = common.add_sun(scene, sun, strength)
@@ -312,12 +333,10 @@ def hair_run(*, resolution=(96, 96), strength=2.0, path=None, via=None):
     uv_img, s = render_scene(scene)
     seconds += s
 
-    idx = segment_mask(basis, resolution, ortho, strands, radius)
-    mask = idx >= 0
+    idx, mask, exp = fan.expected(strength)
+    dirs = fan.dirs
     T = np.zeros(mask.shape + (3,))
     T[mask] = dirs[idx[mask]]
-    exp = np.zeros(mask.shape + (3,))
-    exp[mask] = _kk(sun, view, T[mask], KK) * strength
     cmp = common.compare(imgs["Direct"], exp, mask)
     ds = imgs["Diffuse"] + imgs["Specular"]
     sum_err = float(np.max(np.abs(ds[mask] - imgs["Color"][mask] / strength))
@@ -337,11 +356,9 @@ def hair_run(*, resolution=(96, 96), strength=2.0, path=None, via=None):
         tangent_max_angle_deg=float(np.degrees(np.arccos(np.clip(cos_t.min(), -1, 1)))),
         highlight_strand=k_best, highlight_T_dot_H=float(th[k_best]),
         min_T_dot_H_over_strands=float(th.min()),
-        render_seconds=seconds, n_strands=len(strands), node_outputs=output_names,
+        render_seconds=seconds, n_strands=len(fan.strands), node_outputs=output_names,
     )
     return cmp, imgs, exp, mask
-
-
 
 
 def hair_strand_tangent_run(backend, *, strand=True, resolution=(96, 96), strength=2.0):
@@ -356,26 +373,16 @@ def hair_strand_tangent_run(backend, *, strand=True, resolution=(96, 96), streng
 
     from . import verify
 
-    view = common.normalize(HAIR_VIEW)
-    sun = common.normalize(HAIR_SUN)
-    ortho = 2.4
     name = f"aniso_hair_strand_{backend}_{int(strand)}"
-    scene, basis = new_scene(name, view_dir=view, ortho_scale=ortho, resolution=resolution)
-    scene.cycles_curves.shape = 'THICK'
-    dirs, strands = hair_fan()
-    radius = 0.04
-    hc = hair_curves(name, strands, radius)
-    light = {"light_direction": sun, "shadows": 0.0, "light_strength": strength}
+    fan = _HairFan(name, resolution)
+    light = {"light_direction": fan.sun, "shadows": 0.0, "light_strength": strength}
     mat, node = make_material(name, "kajiya_kay", KK, light=light, via="api")
     if strand:
         api.use_strand_tangent(node)
-    link_object(scene, name, hc, mat)
-    verify.use_backend(scene, backend, api)
-    img, _seconds = render_scene(scene)
-    idx = segment_mask(basis, resolution, ortho, strands, radius)
-    mask = idx >= 0
-    exp = np.zeros(mask.shape + (3,))
-    exp[mask] = _kk(sun, view, dirs[idx[mask]], KK) * strength
+    link_object(fan.scene, name, fan.curves, mat)
+    verify.use_backend(fan.scene, backend, api)
+    img, _seconds = render_scene(fan.scene)
+    _idx, mask, exp = fan.expected(strength)
     cmp = common.compare(img, exp, mask)
     cmp.update(max_abs_over_peak=cmp["max_abs_error"] / cmp["peak"])
     return cmp, img, exp, mask
