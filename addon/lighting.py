@@ -751,6 +751,27 @@ def moved_lamp_lights(node, parents=None, bound=None, sockets=None, factors=None
     return out
 
 
+# what :func:`rebind_changed_lamps` last read of the lamps (:func:`lamp_kinds`);
+# None: nothing yet
+_KINDS_READ = [None]
+
+
+def lamp_kinds() -> dict:
+    """Each lamp object's light data and its type, by session uids: what of
+    a lamp an edit of its light can change that :func:`rebind_changed_lamps`
+    looks at (its collections change with an update of a collection)."""
+    return {obj.session_uid: (obj.data.session_uid, obj.data.type)
+            for obj in bpy.data.objects if obj.type == 'LIGHT' and obj.data is not None}
+
+
+def lamp_kinds_changed() -> bool:
+    """Whether a lamp's light data or type changed (or a lamp came or went)
+    since :func:`rebind_changed_lamps` last ran: after an edit of a light
+    alone, nothing else it reads can have (its energy or colour: the
+    drivers read them)."""
+    return _KINDS_READ[0] is None or lamp_kinds() != _KINDS_READ[0]
+
+
 def rebind_changed_lamps() -> int:
     """Bind again, light by light, each bound lamp whose type changed since
     binding to another type exact mode follows (:func:`retyped_lamps`: a
@@ -759,6 +780,7 @@ def rebind_changed_lamps() -> int:
     its drivers made as binding it now would make them.  An area lamp is
     left as it is (exact mode follows none; the sidebar names it).  In
     every material's RM nodes but linked ones.  Returns how many lights."""
+    _KINDS_READ[0] = lamp_kinds()
     count, parents, factors = 0, _collection_parents(), {}
     for node in _local_rm_nodes():
         sockets = groups.input_sockets(node)
