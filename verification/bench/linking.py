@@ -67,8 +67,9 @@ class _Graph:
         return bool(self.updates)
 
 
-# what Blender's depsgraph says was updated after a light's energy was edited
-# (measured, 5.2.4: the scene, the light and its node tree; 4.5.15: the light)
+# what Blender's depsgraph says was updated after a bound lamp's energy was edited
+# (measured, 5.2.4 and 4.5.15: the scene, the lamp, its light, materials and node trees; not
+# the collections)
 ENERGY_EDIT = dict(materials=True, lights=True)
 
 
