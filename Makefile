@@ -4,6 +4,7 @@
 #
 #   make test                  run the test suite (Blender 5.2 if Python 3.13 exists, else 4.5)
 #   make test BLENDER=4.5      run it against bpy 4.5 (Python 3.11) in .venv-4.5
+#   make test BLENDER=5.3      against bpy 5.3 (Python 3.13) in .venv-5.3 (not in CI)
 #   make test-all              both versions, one after the other
 #   make test TESTS=tests/test_packaging.py PYTEST_ARGS=-x   a subset, extra pytest options
 #   make test TEST_JOBS=1      in one process (default: two, a test file each)
@@ -36,7 +37,7 @@ find_python = $(or $(call first_python,$(sort $(wildcard $(PYENV_ROOT)/versions/
 # BLENDER selects the bpy series; without it, 5.2 if a Python 3.13 exists.
 # An unrelated BLENDER in the environment (say, a path to a binary) is ignored.
 ifeq ($(origin BLENDER),environment)
-  ifeq ($(filter 5.2 4.5,$(BLENDER)),)
+  ifeq ($(filter 5.2 4.5 5.3,$(BLENDER)),)
     BLENDER :=
   endif
 endif
@@ -51,8 +52,11 @@ ifeq ($(BLENDER),5.2)
 else ifeq ($(BLENDER),4.5)
   PYVER := 3.11
   VENV := .venv-4.5
+else ifeq ($(BLENDER),5.3)
+  PYVER := 3.13
+  VENV := .venv-5.3
 else
-  $(error BLENDER must be 5.2 or 4.5, not "$(BLENDER)")
+  $(error BLENDER must be 5.2, 4.5 or 5.3, not "$(BLENDER)")
 endif
 
 REQUIREMENTS := bpy==$(BLENDER).* numpy OpenImageIO pytest pytest-xdist matplotlib jinja2 mpmath scipy highspy
@@ -187,4 +191,4 @@ clean:
 	find . \( -path ./.git -o -path './.venv*' \) -prune -o -name __pycache__ -type d -prune -exec rm -rf {} +
 
 distclean: clean
-	rm -rf .venv .venv-4.5
+	rm -rf .venv .venv-4.5 .venv-5.3

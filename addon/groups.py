@@ -38,7 +38,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 25  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 26  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -101,6 +101,9 @@ NODES_VERSION = 25  # 2: a closure-only shader feeds the BSDF output;
 #    nodes were built for (``rm_native``), and a group built for another
 #    Blender's is outdated too (a file made in 4.5 opened in 5.2 had no
 #    shadow ray in native exact mode)
+# 26: native Phong's switch between the engines takes Shader to RGB's Alpha
+#    through a Maximum node (Blender 5.3.0's EEVEE crashed on the Mix Shader
+#    fed by it directly, next to an Add Shader): files saved before get it
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 
@@ -572,6 +575,44 @@ def remove_group(tree) -> None:
     parts = _parts(tree)
     bpy.data.node_groups.remove(tree)
     _remove_unused(parts)
+
+
+def mend_engine_switches() -> int:
+    """Groups built before :data:`NODES_VERSION` 26 feed native Phong's
+    switch between the engines (a Mix Shader) from a Shader to RGB node's
+    Alpha directly, which Blender 5.3.0's EEVEE crashes on (a segmentation
+    fault, in a render and in the viewport: ``docs/compatibility.md``).
+    Each such link of a local RM group (and of its nested parts) gets the
+    Maximum node the groups have since (its other input 0; the one the
+    link feeds 0 where Cycles drops the link): what renders is unchanged in
+    both engines, and nothing else of the group is touched (it stays listed
+    as outdated).  Run at each file's load.  Returns the links mended."""
+    mended, seen = 0, set()
+    for tree in [t for t in bpy.data.node_groups if t.library is None and rm_info(t)]:
+        if int(tree.get("rm_version", 0)) >= 26:
+            continue
+        for sub in [tree] + _parts(tree):
+            if sub.name_full in seen:
+                continue
+            seen.add(sub.name_full)
+            for link in [ln for ln in sub.links
+                         if ln.from_node.bl_idname == "ShaderNodeShaderToRGB"
+                         and ln.to_node.bl_idname == "ShaderNodeMixShader"
+                         and ln.to_socket == ln.to_node.inputs[0]]:
+                source, factor = link.from_socket, link.to_socket
+                top = sub.nodes.new("ShaderNodeMath")
+                top.operation = 'MAXIMUM'
+                top.label = "EEVEE's 1, Cycles' 0"
+                top.location = (link.from_node.location.x + 100.0, link.from_node.location.y)
+                if link.from_node.parent is not None:
+                    top.parent = link.from_node.parent
+                top.inputs[0].default_value = 0.0
+                top.inputs[1].default_value = 0.0
+                sub.links.remove(link)
+                sub.links.new(source, top.inputs[0])
+                sub.links.new(top.outputs[0], factor)
+                mended += 1
+    return mended
 
 
 def _remove_unused(parts) -> None:

@@ -726,6 +726,9 @@ def on_load_post(*_args):
     message = outdated_groups_message()
     if message:
         log.warning(message)
+    _logged(groups.mend_engine_switches, "mend the groups' switches between the engines",
+            "%d switch(es) between the engines of older groups mended (EEVEE 5.3.0 crashed "
+            "on them)")
 
 
 def outdated_groups_message():

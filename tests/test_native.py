@@ -468,13 +468,15 @@ def test_a_mixture_plans_no_tangent_and_three_weights_per_vector_node(model, enu
 
 @pytest.mark.parametrize("band", ["shipped", "synthetic"])
 def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee(monkeypatch, band):
-    """Phong's BSDF output: a Mix Shader whose factor is the Alpha of Shader
-    to RGB of an emission (EEVEE: 1; Cycles drops the node, the factor
-    stays 0), the Toon mixture on its first input, the Glossy one on its
-    second (EEVEE renders the Toon BSDF as a diffuse one).  With a band
-    where Cycles renders the Glossy mixture too (the shipped data has none;
-    one put in its place, log(1 + s) from 0.3 to 0.5), the factor is the
-    larger of the Alpha and the band."""
+    """Phong's BSDF output: a Mix Shader whose factor is the larger of the
+    Alpha of Shader to RGB of an emission (EEVEE: 1; Cycles drops the node,
+    the Maximum's input stays 0) and the band where Cycles renders the
+    Glossy mixture too, the Toon mixture on its first input, the Glossy one
+    on its second (EEVEE renders the Toon BSDF as a diffuse one).  The
+    shipped data has no band (a constant 0 there); a band is put in its
+    place too (log(1 + s) from 0.3 to 0.5).  The Maximum is there without a
+    band too: Blender 5.3.0's EEVEE crashed on the Mix Shader fed by the
+    Alpha directly (measured)."""
     from addon.core.fits import toon as data
     if band == "synthetic":
         monkeypatch.setattr(data, "GLOSSY_BAND", (0.3, 0.5))
@@ -484,15 +486,13 @@ def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee(monkeypa
         mix = by_id[refs["BSDF"][1]]
         assert mix.type == "ShaderNodeMixShader"
         assert mix.props["input_defaults"] == {0: 0.0}  # what Cycles keeps of a dropped link
+        # the factor is the larger of EEVEE's 1 and the band (a socket: the
+        # exponent is one; the constant 0 without a band)
         either = by_id[mix.inputs[0][1]]
-        if data.GLOSSY_BAND is None:
-            fac, link = either, mix.inputs[0]
-        else:
-            # the exponent is a socket: the factor is the larger of EEVEE's 1
-            # and the band where Cycles renders the Glossy mixture too
-            assert either.type == "ShaderNodeMath" and either.props["operation"] == "MAXIMUM"
-            assert either.props["input_defaults"] == {0: 0.0}
-            fac, link = by_id[either.inputs[0][1]], either.inputs[0]
+        assert either.type == "ShaderNodeMath" and either.props["operation"] == "MAXIMUM"
+        assert either.props["input_defaults"] == {0: 0.0}
+        assert (either.inputs[1] == ("const", 0.0)) == (data.GLOSSY_BAND is None)
+        fac, link = by_id[either.inputs[0][1]], either.inputs[0]
         assert fac.type == "ShaderNodeShaderToRGB" and link[2] == 1  # Alpha
         assert by_id[fac.inputs[0][1]].type == "ShaderNodeEmission"
 
@@ -509,6 +509,49 @@ def test_native_phong_is_toon_lobes_in_cycles_and_glossy_lobes_in_eevee(monkeypa
         assert "ShaderNodeBsdfGlossy" in eevee and "ShaderNodeBsdfToon" not in eevee
         assert all(n.props.get("component") == "GLOSSY" for n in nodes
                    if n.type == "ShaderNodeBsdfToon")
+
+
+def test_an_older_groups_engine_switch_is_mended_at_load(api, bpy):
+    """A group built before NODES_VERSION 26 feeds Phong's switch between
+    the engines from Shader to RGB's Alpha directly (EEVEE 5.3.0 crashed
+    on it): at a file's load (the load_post handler) the link gets the
+    Maximum node the groups have since, its inputs 0 but the Alpha (what
+    Cycles keeps of the dropped link), and nothing more; a group of
+    version 26 or later, and a mended one, is left alone."""
+    from addon import groups, ui
+
+    mat = bpy.data.materials.new("rm_mend_switch")
+    node = api.add_model(mat, "phong", mode="path_traced", backend="native")
+    tree = node.node_tree
+    try:
+        switches = [(sub, n) for sub in [tree] + groups._parts(tree) for n in sub.nodes
+                    if n.bl_idname == "ShaderNodeMixShader" and n.inputs[0].links
+                    and n.inputs[0].links[0].from_node.bl_idname == "ShaderNodeMath"
+                    and n.inputs[0].links[0].from_node.inputs[0].links
+                    and n.inputs[0].links[0].from_node.inputs[0].links[0].from_node.bl_idname
+                    == "ShaderNodeShaderToRGB"]
+        assert len(switches) == 1
+        sub, mix = switches[0]
+        assert groups.mend_engine_switches() == 0  # built now: nothing to mend
+        # the group as NODES_VERSION 25 built it
+        maximum = mix.inputs[0].links[0].from_node
+        alpha = maximum.inputs[0].links[0].from_socket
+        sub.nodes.remove(maximum)
+        sub.links.new(alpha, mix.inputs[0])
+        tree["rm_version"] = 25
+        count = len(sub.nodes)
+        ui.on_load_post()
+        link = mix.inputs[0].links[0]
+        top = link.from_node
+        assert top.bl_idname == "ShaderNodeMath" and top.operation == 'MAXIMUM'
+        assert top.inputs[0].links[0].from_socket == alpha and not top.inputs[1].links
+        assert top.inputs[0].default_value == 0.0 and top.inputs[1].default_value == 0.0
+        assert len(sub.nodes) == count + 1 and mix.inputs[0].default_value == 0.0
+        assert tree["rm_version"] == 25  # still listed as outdated: the upgrade rebuilds it
+        assert groups.mend_engine_switches() == 0
+    finally:
+        bpy.data.materials.remove(mat)
+        groups.remove_group(tree)
 
 
 @pytest.mark.parametrize("band", ["shipped", "synthetic"])

@@ -26,8 +26,8 @@ and power); the few that have no node are composed:
   behind it); in Blender 4.5, which has no Raycast node, nothing is
   occluded;
 - ``engine_switch(cycles, eevee)``: a Mix Shader whose factor is the Alpha
-  of Shader to RGB of an emission (1 in EEVEE; Cycles drops the node and
-  the factor keeps its socket's value, 0);
+  of Shader to RGB of an emission through a Maximum (1 in EEVEE; Cycles
+  drops the node and the Maximum's input keeps its socket's value, 0);
 - closures: Diffuse, Toon (glossy), Glossy (GGX, Beckmann, Ashikhmin-Shirley; roughness
   sqrt(alpha), anisotropy from the ratio), Hair (reflection) with their
   colour as the weight; the Metallic BSDF (physical conductor) has no colour
@@ -299,17 +299,20 @@ class Planner:
         return self.separate[key]
 
     def _engine_switch(self, cycles, eevee, both=("const", 0.0)):
-        """A Mix Shader: its factor is the Alpha of Shader to RGB of a white
-        emission, 1 in EEVEE (or ``both``, where it is 1); Cycles has no
-        Shader to RGB node, drops the link and leaves the input at its
-        socket's value, set to 0 here (measured in Cycles SVM and EEVEE,
-        Blender 4.5 and 5.2)."""
+        """A Mix Shader: its factor is the larger of the Alpha of Shader to
+        RGB of a white emission, 1 in EEVEE, and ``both`` (1 where Cycles
+        renders ``eevee`` too); Cycles has no Shader to RGB node, drops the
+        link and leaves the Maximum's input at its socket's value, set to 0
+        here (measured in Cycles SVM and EEVEE, Blender 4.5 and 5.2).  The
+        Math node is there even where ``both`` is 0: Blender 5.3.0's EEVEE
+        crashes (a segmentation fault) on a Mix Shader whose factor is a
+        Shader to RGB's output itself with an Add Shader on one of its
+        inputs, and renders it with a Math node between (measured)."""
         probe = self.node("ShaderNodeEmission", {}, {"Color": ("const", (1.0, 1.0, 1.0)),
                                                      "Strength": ("const", 1.0)})
         is_eevee = self.node("ShaderNodeShaderToRGB", {}, {0: probe}, out=1)
-        fac = is_eevee if both == ("const", 0.0) else self.node(
-            "ShaderNodeMath", {"operation": "MAXIMUM", "input_defaults": {0: 0.0}},
-            {0: is_eevee, 1: both})
+        fac = self.node("ShaderNodeMath", {"operation": "MAXIMUM", "input_defaults": {0: 0.0}},
+                        {0: is_eevee, 1: both})
         return self.node("ShaderNodeMixShader", {"input_defaults": {0: 0.0}},
                          {0: fac, 1: cycles, 2: eevee}, label="Cycles | EEVEE")
 
