@@ -581,7 +581,7 @@ def mend_engine_switches() -> int:
     """Groups built before :data:`NODES_VERSION` 26 feed native Phong's
     switch between the engines (a Mix Shader) from a Shader to RGB node's
     Alpha directly, which Blender 5.3.0's EEVEE crashes on (a segmentation
-    fault, in a render and in the viewport: ``docs/compatibility.md``).
+    fault in a render, measured: ``docs/compatibility.md``).
     Each such link of a local RM group (and of its nested parts) gets the
     Maximum node the groups have since (its other input 0; the one the
     link feeds 0 where Cycles drops the link): what renders is unchanged in
