@@ -577,8 +577,12 @@ def remove_group(tree) -> None:
     _remove_unused(parts)
 
 
+# the NODES_VERSION since which native Phong's engine switch has its Maximum node
+SWITCH_THROUGH_MAXIMUM = 26
+
+
 def mend_engine_switches() -> int:
-    """Groups built before :data:`NODES_VERSION` 26 feed native Phong's
+    """Groups built before :data:`SWITCH_THROUGH_MAXIMUM` feed native Phong's
     switch between the engines (a Mix Shader) from a Shader to RGB node's
     Alpha directly, which Blender 5.3.0's EEVEE crashes on (a segmentation
     fault in a render, measured: ``docs/compatibility.md``).
@@ -589,7 +593,7 @@ def mend_engine_switches() -> int:
     as outdated).  Run at each file's load.  Returns the links mended."""
     mended, seen = 0, set()
     for tree in [t for t in bpy.data.node_groups if t.library is None and rm_info(t)]:
-        if int(tree.get("rm_version", 0)) >= 26:
+        if int(tree.get("rm_version", 0)) >= SWITCH_THROUGH_MAXIMUM:
             continue
         for sub in [tree] + _parts(tree):
             if sub.name_full in seen:

@@ -303,7 +303,7 @@ class Planner:
         RGB of a white emission, 1 in EEVEE, and ``both`` (1 where Cycles
         renders ``eevee`` too); Cycles has no Shader to RGB node, drops the
         link and leaves the Maximum's input at its socket's value, set to 0
-        here (measured in Cycles SVM and EEVEE, Blender 4.5 and 5.2).  The
+        here (measured in Cycles SVM and EEVEE, Blender 4.5, 5.2 and 5.3).  The
         Math node is there even where ``both`` is 0: Blender 5.3.0's EEVEE
         crashes (a segmentation fault) on a Mix Shader whose factor is a
         Shader to RGB's output itself with an Add Shader on one of its
