@@ -751,25 +751,49 @@ def moved_lamp_lights(node, parents=None, bound=None, sockets=None, factors=None
     return out
 
 
-# what :func:`rebind_changed_lamps` last read of the lamps (:func:`lamp_kinds`);
-# None: nothing yet
-_KINDS_READ = [None]
+# what :func:`rebind_changed_lamps` last read of the lamps and the file
+# (:func:`_read_state`); None: nothing yet
+_PLACES_READ = [None]
 
 
-def lamp_kinds() -> dict:
-    """Each lamp object's light data and its type, by session uids: what of
-    a lamp an edit of its light can change that :func:`rebind_changed_lamps`
-    looks at (its collections change with an update of a collection)."""
-    return {obj.session_uid: (obj.data.session_uid, obj.data.type)
-            for obj in bpy.data.objects if obj.type == 'LIGHT' and obj.data is not None}
+def lamp_places(parents=None) -> dict:
+    """Each lamp object's light data, its type and the ways down to it
+    (:func:`collection_paths`, each collection by its session uid and
+    name), by session uids: what of a lamp an edit of its light or of a
+    collection can change that :func:`rebind_changed_lamps` looks at (the
+    collections' Disable in Renders and the view layers' exclusions are
+    read by the drivers).  ``parents``: :func:`_collection_parents`, read
+    here if None."""
+    parents = _collection_parents() if parents is None else parents
+    places = {}
+    for obj in bpy.data.objects:
+        if obj.type != 'LIGHT' or obj.data is None:
+            continue
+        paths = collection_paths(obj, parents)
+        places[obj.session_uid] = (
+            obj.data.session_uid, obj.data.type,
+            None if paths is None else tuple(tuple((c.session_uid, c.name) for c in path)
+                                             for path in paths))
+    return places
 
 
-def lamp_kinds_changed() -> bool:
-    """Whether a lamp's light data or type changed (or a lamp came or went)
-    since :func:`rebind_changed_lamps` last ran: after an edit of a light
-    alone, nothing else it reads can have (its energy or colour: the
-    drivers read them)."""
-    return _KINDS_READ[0] is None or lamp_kinds() != _KINDS_READ[0]
+def _read_state(parents=None) -> tuple:
+    """What :func:`rebind_changed_lamps` reads that an update can change
+    and the drivers do not follow: :func:`lamp_places`, and how many
+    materials and node groups the file holds (an appended material brings
+    its bindings, perhaps an older version's; measured: appending updates
+    every kind of data, the collections among them)."""
+    return lamp_places(parents), len(bpy.data.materials), len(bpy.data.node_groups)
+
+
+def lamps_or_materials_changed() -> bool:
+    """Whether a lamp's light data, type or collections changed (or a lamp
+    came or went), or materials or node groups came or went, since
+    :func:`rebind_changed_lamps` last ran: after an edit of a light or a
+    collection alone, nothing else it reads can have (a light's energy or
+    colour, a collection's Disable in Renders or exclusion: the drivers
+    read them)."""
+    return _PLACES_READ[0] is None or _read_state() != _PLACES_READ[0]
 
 
 def rebind_changed_lamps() -> int:
@@ -780,8 +804,8 @@ def rebind_changed_lamps() -> int:
     its drivers made as binding it now would make them.  An area lamp is
     left as it is (exact mode follows none; the sidebar names it).  In
     every material's RM nodes but linked ones.  Returns how many lights."""
-    _KINDS_READ[0] = lamp_kinds()
     count, parents, factors = 0, _collection_parents(), {}
+    _PLACES_READ[0] = _read_state(parents)
     for node in _local_rm_nodes():
         sockets = groups.input_sockets(node)
         bound = _bound_by_light(node, sockets)

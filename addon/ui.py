@@ -785,11 +785,15 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
     object given a hybrid material was lit twice, by the closure and by the
     exact evaluation):
 
-    - after a collection was edited, a light's type or a lamp's light data
-      changed (measured, 5.2.4 and 4.5.15: an edit of a light's energy, colour or
-      type updates the light and not the collections; a lamp moved to
-      another collection, a collection hidden or excluded, a lamp given
-      other light data update the collections), and at the first update
+    - after a light or a collection was edited where a lamp's type, light
+      data or collections changed (measured, 5.2.4 and 4.5.15: an edit of a
+      light's energy, colour or type updates the light and not the
+      collections; a lamp moved to another collection, a collection
+      hidden or excluded, a lamp given other light data update the
+      collections; a collection's Disable in Renders and exclusion, which
+      the drivers read, change nothing read here; appending updates every
+      kind of data, and what it brings changes the count of materials or
+      node groups, also read here), and at the first update
       after the extension was enabled, a file opened, an undo or a redo:
       a bound lamp whose type changed (a sun made a spot lamp), that is
       now in other or renamed collections (whose Disable in Renders and
@@ -825,10 +829,10 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         # a transform or an edit of existing data: adding or removing an object and changing
         # a slot rebuild the depsgraph's relations, which updates the scene (measured)
         return
-    if first or updated is None or updated('COLLECTION') \
-            or (updated('LIGHT') and lighting.lamp_kinds_changed()):
+    if first or updated is None or ((updated('COLLECTION') or updated('LIGHT'))
+                                    and lighting.lamps_or_materials_changed()):
         # at the first look too: a file's older bindings; an edit of a light's energy or
-        # colour (an update of the light alone) changes nothing this reads: not read again
+        # colour, or of a collection's switches, changes nothing this reads: not read again
         _logged(*_REBIND_CHANGED)
     count = len(bpy.data.objects)
     if count != _objects_seen[0]:

@@ -1318,6 +1318,15 @@ def test_the_viewport_lets_go_of_a_deleted_hybrid_nodes_objects_at_once(bpy,
         bpy.data.materials.remove(mat)
 
 
+def _as_if_opened(installed_extension):
+    """What opening a file does to the installed extension's viewport
+    handler (its ``load_post``): the next update reads everything again,
+    a file's older bindings among them (the bindings are otherwise read
+    after an edit of a lamp's type, light data or collections)."""
+    import importlib
+    importlib.import_module(installed_extension + ".ui").on_load_post()
+
+
 def _driver_signature(api, node):
     """What binding made on ``node``'s lights: each driver's path, index
     and expression, sorted."""
@@ -1363,17 +1372,24 @@ def test_a_bound_lamp_whose_type_changed_is_bound_again(bpy, installed_extension
         lighting.remove_binding(api, node, g.scene, mat)
 
 
-def test_an_edit_of_a_bound_lamps_energy_does_not_read_the_bindings_again(
+def test_an_edit_of_a_lamps_energy_or_a_collections_switch_does_not_read_the_bindings_again(
         bpy, installed_extension, monkeypatch):
     """After an edit of a light's energy or colour Blender updates the light
-    alone (not the collections); the viewport's handler then reads the
-    bindings again only where a lamp's type or light data changed (reading
-    them took 0.45 ms a bound node at each step of a dragged slider,
-    ``make bench``).  The readings counted (``rebind_changed_lamps``, which
-    the handler calls): none after the energy was edited, and the node's
+    alone (not the collections), after one of a collection's Disable in
+    Renders the collections; the viewport's handler then reads the
+    bindings again only where a lamp's type, light data or collections
+    changed, or materials came or went (reading them took 0.45 ms a bound
+    node at each step of a dragged slider, ``make bench``, and at each
+    click on a collection's switch).  The readings counted (``rebind_changed_lamps``, which the
+    handler calls): none after the energy was edited, and the node's
     strength follows the lamp (its driver); one after the type changed,
-    which binds the lamp again (its spot input then 1); one after a
-    collection was edited."""
+    which binds the lamp again (its spot input then 1); none after another
+    collection was disabled in renders; one after the lamp was moved into
+    it, which binds it to that collection (its strength then 0), one after
+    the collection was renamed (the view layer's exclusion is read by the
+    collection's name), and one after a material came (appending one,
+    perhaps bound by an older version, updates the collections too:
+    measured) and the collection was enabled again."""
     import importlib
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_energy",
                                                           "exact")
@@ -1402,8 +1418,21 @@ def test_an_edit_of_a_bound_lamps_energy_does_not_read_the_bindings_again(
         assert groups.input_socket(node, "spot").default_value == 1.0
         other.hide_render = True
         layer.update()
-        assert reads == [1, 1]
+        assert reads == [1]
+        move_to_collection(g.sun, other)
+        layer.update()
+        assert reads == [1, 1] and linking.bound_collections(node, 1) == [other]
+        assert groups.input_socket(node, "light_strength").default_value == 0.0
+        other.name = "rm_energy renamed"
+        layer.update()
+        assert reads == [1, 1, 1] and linking.moved_lamp_lights(node) == []
+        added = bpy.data.materials.new("rm_energy added")  # as appending one would
+        other.hide_render = False
+        layer.update()
+        assert reads == [1, 1, 1, 1]
     finally:
+        if "added" in locals():
+            bpy.data.materials.remove(added)
         bpy.data.collections.remove(other)
         lighting.remove_binding(api, node, g.scene, mat)
 
@@ -1466,8 +1495,9 @@ def test_exact_mode_follows_the_view_layers_exclusion_of_the_lamps_collections(
     relative: the same scene and drivers, float32).  The paths are by name:
     a collection renamed with the viewport's handler out is bound again by
     the render handler, and its exclusion followed; a binding that reads no
-    exclusion (as made by the forty-first session) is bound again at the
-    viewport's next update."""
+    exclusion (as made by the forty-first session, in a file opened) is
+    bound again at the viewport's first update after the file is opened
+    (``load_post``)."""
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_layers",
                                                           "exact")
     outer = bpy.data.collections.new("rm_ll_layers outer")
@@ -1510,6 +1540,7 @@ def test_exact_mode_follows_the_view_layers_exclusion_of_the_lamps_collections(
             driver.expression = driver.expression.replace(" * (1 - v0)", "") \
                 .replace(" * (1 - v1)", "")
             assert linking.moved_lamp_lights(node) == [1]
+        _as_if_opened(installed_extension)
         first.update()
         assert linking.moved_lamp_lights(node) == []
         assert np.allclose(render(first), lit, rtol=1e-6, atol=0)
@@ -1611,8 +1642,9 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
     the exact render equals the path-traced one, black where the lamp does
     not light that kind (1e-4 relative for Lambert, 1e-3 for the GGX
     closure, the exact closures' tolerance, float32).  A binding without
-    the variable (as made before the forty-second session) is bound again
-    at the viewport's next update."""
+    the variable (as made before the forty-second session, in a file
+    opened) is bound again at the viewport's first update after the file
+    is opened."""
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_rays",
                                                           "exact")
     if model != "lambert":
@@ -1640,6 +1672,7 @@ def test_exact_mode_follows_the_lamps_ray_visibility(bpy, installed_extension, m
         driver.variables.remove(driver.variables[linking.RAY])
         driver.expression = driver.expression.replace(f" * {linking.RAY}", "")
         assert linking.moved_lamp_lights(node) == [1]
+        _as_if_opened(installed_extension)
         g.scene.view_layers[0].update()
         assert linking.moved_lamp_lights(node) == []
         setattr(g.sun, kind, False)
@@ -1782,8 +1815,9 @@ def test_exact_mode_takes_a_mirrored_lamps_direction_as_cycles_does(bpy, install
     one for each scale (1e-4 relative, float32, Lambert's closure being the
     model, and 1e-4 of the peak at a spot's blended edge; a sun whose
     column is flipped shines from below and lights few tiles).  A
-    binding with Euler angles, as made before the forty-second session, is
-    bound again at the viewport's next update."""
+    binding with Euler angles, as made before the forty-second session (in
+    a file opened), is bound again at the viewport's first update after
+    the file is opened."""
     api, linking, mat, node, g = _installed_lambert_gonio(installed_extension, "rm_ll_mirror",
                                                           "exact")
     spot = lit.add_lamp(g.scene, lit.Lamp("SPOT", position=(0.3, 0.2, 3.0),
@@ -1828,6 +1862,7 @@ def test_exact_mode_takes_a_mirrored_lamps_direction_as_cycles_does(bpy, install
         old.type = 'TRANSFORMS'
         old.targets[0].id = g.sun
         assert driver is not None and linking.moved_lamp_lights(node) == [1]
+        _as_if_opened(installed_extension)
         g.scene.view_layers[0].update()
         assert linking.moved_lamp_lights(node) == [] and not linking._euler_direction(node, 1)
     finally:

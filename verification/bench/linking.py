@@ -157,15 +157,18 @@ def _node_edit(api, ui, m):
 def _light_edit_bound(api, ui, m):
     """Seconds of the viewport's handler at an update of a light (its
     energy edited: nothing the bindings' check reads has changed, and it
-    is not run), and at one of a collection (every binding read for a lamp
-    whose collections or light data changed, none found), nothing else
-    changed, among ``m`` materials each with an exact-mode node bound to
-    the same four lamps (two suns, a point and a spot lamp, in a
-    collection of the scene); all removed."""
+    is not run), at one of a collection (a switch of one: no lamp's
+    collections changed, and it is not run either), and at one of a
+    collection after a lamp was moved into another (every binding read,
+    the moved lamp's bound again in every node), among ``m`` materials
+    each with an exact-mode node bound to the same four lamps (two suns,
+    a point and a spot lamp, in a collection of the scene); all removed."""
     import bpy
     scene = bpy.data.scenes.new(f"rm_bench_bound_{m}")
     rig = bpy.data.collections.new("rm_bench_rig")
+    away = bpy.data.collections.new("rm_bench_away")
     scene.collection.children.link(rig)
+    scene.collection.children.link(away)
     lamps = []
     for i, kind in enumerate(("SUN", "POINT", "SPOT", "SUN")):
         lamps.append(bpy.data.objects.new(f"rm_bench_{i}", bpy.data.lights.new(f"rm_{i}", kind)))
@@ -178,11 +181,17 @@ def _light_edit_bound(api, ui, m):
     t0 = time.perf_counter()
     ui.on_depsgraph_update_post(scene, _Graph(**ENERGY_EDIT))
     t1 = time.perf_counter()
+    away.hide_render = True
     ui.on_depsgraph_update_post(scene, _Graph(collections=True))
     t2 = time.perf_counter()
-    bpy.data.batch_remove(materials + lamps + [lamp.data for lamp in lamps] + [rig])
+    away.objects.link(lamps[0])
+    rig.objects.unlink(lamps[0])
+    t3 = time.perf_counter()
+    ui.on_depsgraph_update_post(scene, _Graph(collections=True))
+    t4 = time.perf_counter()
+    bpy.data.batch_remove(materials + lamps + [lamp.data for lamp in lamps] + [rig, away])
     bpy.data.scenes.remove(scene)
-    return t1 - t0, t2 - t1
+    return t1 - t0, t2 - t1, t4 - t3
 
 
 def _bind_many(api, n, deferred):
@@ -246,18 +255,19 @@ def main(argv=None):
           "updated); measured, not asserted)")
     print("\nThe viewport's handler after a node or a light was edited, nothing else changed")
     print(f"{'materials':>9s} {'node':>9s} {'light':>9s} {'light, all bound':>17s} "
-          f"{'collection, all bound':>22s}")
+          f"{'collection, all bound':>22s} {'lamp moved, all bound':>22s}")
     for m in (10, 100, 1_000):
         node, light = _node_edit(api, ui, m)
-        bound, collection = _light_edit_bound(api, ui, m)
+        bound, collection, moved = _light_edit_bound(api, ui, m)
         print(f"{m:9d} {node * 1e3:7.2f}ms {light * 1e3:7.2f}ms {bound * 1e3:15.2f}ms "
-              f"{collection * 1e3:20.2f}ms")
+              f"{collection * 1e3:20.2f}ms {moved * 1e3:20.2f}ms")
     print("(each material a Principled BSDF, one of them with a hybrid node bound to a sun: "
           "after a node edit the handler reads which materials have a bound hybrid node, "
           "after a light's energy was edited (the update Blender makes) which lamps' type "
           "or light data changed; all bound: each material an exact-mode node bound to the "
-          "same four lamps; after a collection was edited every binding is read for a lamp "
-          "whose collections or light data changed; measured, not asserted)")
+          "same four lamps; after a collection's Disable in Renders was switched which lamps' "
+          "collections changed (none); after a lamp was moved to another collection every "
+          "binding is read and the lamp bound again in each node; measured, not asserted)")
     print("\nBinding hybrid nodes one by one to a sun, each material on an object of its own")
     print(f"{'nodes':>9s} {'each bind':>10s} {'deferred':>9s}")
     for n in (100, 400):
