@@ -830,7 +830,7 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         # a slot rebuild the depsgraph's relations, which updates the scene (measured)
         return
     if first or updated is None or ((updated('COLLECTION') or updated('LIGHT'))
-                                    and lighting.lamps_or_materials_changed()):
+                                    and _lamps_or_materials_changed()):
         # at the first look too: a file's older bindings; an edit of a light's energy or
         # colour, or of a collection's switches, changes nothing this reads: not read again
         _logged(*_REBIND_CHANGED)
@@ -847,6 +847,15 @@ def on_depsgraph_update_post(_scene=None, depsgraph=None, *_args):
         return
     if changed:
         _update_linking("update")
+
+
+def _lamps_or_materials_changed() -> bool:
+    """:func:`lighting.lamps_or_materials_changed`, True where it cannot be
+    read (the bindings' reading then logs what failed)."""
+    try:
+        return lighting.lamps_or_materials_changed()
+    except _FAILURES:
+        return True
 
 
 def _exclusions_changed(depsgraph, updated) -> bool:
