@@ -255,7 +255,7 @@ def main(argv=None):
           "updated); measured, not asserted)")
     print("\nThe viewport's handler after a node or a light was edited, nothing else changed")
     print(f"{'materials':>9s} {'node':>9s} {'light':>9s} {'light, all bound':>17s} "
-          f"{'collection, all bound':>22s} {'lamp moved, all bound':>22s}")
+          f"{'switch, all bound':>22s} {'lamp moved, all bound':>22s}")
     for m in (10, 100, 1_000):
         node, light = _node_edit(api, ui, m)
         bound, collection, moved = _light_edit_bound(api, ui, m)
@@ -263,10 +263,10 @@ def main(argv=None):
               f"{collection * 1e3:20.2f}ms {moved * 1e3:20.2f}ms")
     print("(each material a Principled BSDF, one of them with a hybrid node bound to a sun: "
           "after a node edit the handler reads which materials have a bound hybrid node, "
-          "after a light's energy was edited (the update Blender makes) which lamps' type "
-          "or light data changed; all bound: each material an exact-mode node bound to the "
-          "same four lamps; after a collection's Disable in Renders was switched which lamps' "
-          "collections changed (none); after a lamp was moved to another collection every "
+          "after a light's energy was edited (the update Blender makes) which lamps' type, "
+          "light data or collections changed; all bound: each material an exact-mode node bound to the "
+          "same four lamps; switch: after a collection's Disable in Renders was switched, the "
+          "same (none changed); after a lamp was moved to another collection every "
           "binding is read and the lamp bound again in each node; measured, not asserted)")
     print("\nBinding hybrid nodes one by one to a sun, each material on an object of its own")
     print(f"{'nodes':>9s} {'each bind':>10s} {'deferred':>9s}")
