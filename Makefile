@@ -79,7 +79,8 @@ XDIST_ARGS := $(if $(filter-out 0 1,$(TEST_JOBS)),-n $(TEST_JOBS) --dist loadfil
 # environment says otherwise): their threads only contend for the cores (measured,
 # tests/test_fitting.py with test_native.py in two processes: 327 -> 287 s on 4.5.15,
 # 238 -> 224 s on 5.2.4)
-BLAS_THREADS := $(if $(filter-out 0 1,$(TEST_JOBS)),OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1},)
+BLAS_THREADS := $(if $(filter-out 0 1,$(TEST_JOBS)),\
+  OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1},)
 
 .PHONY: test test-all zip demo bench fit venv clean distclean
 

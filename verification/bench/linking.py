@@ -264,10 +264,11 @@ def main(argv=None):
     print("(each material a Principled BSDF, one of them with a hybrid node bound to a sun: "
           "after a node edit the handler reads which materials have a bound hybrid node, "
           "after a light's energy was edited (the update Blender makes) which lamps' type, "
-          "light data or collections changed; all bound: each material an exact-mode node bound to the "
-          "same four lamps; switch: after a collection's Disable in Renders was switched, the "
-          "same (none changed); after a lamp was moved to another collection every "
-          "binding is read and the lamp bound again in each node; measured, not asserted)")
+          "light data or collections changed; all bound: each material an exact-mode node "
+          "bound to the same four lamps; switch: after a collection's Disable in Renders was "
+          "switched, the same (none changed); after a lamp was moved to another collection "
+          "every binding is read and the lamp bound again in each node; measured, not "
+          "asserted)")
     print("\nBinding hybrid nodes one by one to a sun, each material on an object of its own")
     print(f"{'nodes':>9s} {'each bind':>10s} {'deferred':>9s}")
     for n in (100, 400):
