@@ -75,12 +75,6 @@ PYTEST_ARGS ?=
 # process at a time (its tests keep their order); 1 runs it in this process.
 TEST_JOBS ?= 2
 XDIST_ARGS := $(if $(filter-out 0 1,$(TEST_JOBS)),-n $(TEST_JOBS) --dist loadfile,-p no:xdist)
-# With several processes, each keeps numpy's OpenBLAS to one thread (unless the
-# environment says otherwise): their threads only contend for the cores (measured,
-# tests/test_fitting.py with test_native.py in two processes: 327 -> 287 s on 4.5.15,
-# 238 -> 224 s on 5.2.4)
-BLAS_THREADS := $(if $(filter-out 0 1,$(TEST_JOBS)),\
-  OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1},)
 
 .PHONY: test test-all zip demo bench fit venv clean distclean
 
@@ -103,7 +97,7 @@ $(STAMP):
 
 test: $(STAMP)
 	@run=$$(mktemp -d -t reflection-models-test-$(BLENDER).XXXXXX); \
-	TMPDIR="$$run" $(BLAS_THREADS) $(PY) -m pytest $(TESTS) -q $(XDIST_ARGS) $(PYTEST_ARGS); status=$$?; \
+	TMPDIR="$$run" $(PY) -m pytest $(TESTS) -q $(XDIST_ARGS) $(PYTEST_ARGS); status=$$?; \
 	rm -rf "$$run"; exit $$status
 
 test-all:
