@@ -1396,7 +1396,7 @@ def test_an_edit_of_a_lamps_energy_or_a_collections_switch_does_not_read_the_bin
     groups = importlib.import_module(installed_extension + ".groups")
     other = bpy.data.collections.new("rm_energy other")
     g.scene.collection.children.link(other)
-    reads = []
+    reads, added = [], None
     reading = linking.rebind_changed_lamps
 
     def counted():
@@ -1431,7 +1431,7 @@ def test_an_edit_of_a_lamps_energy_or_a_collections_switch_does_not_read_the_bin
         layer.update()
         assert reads == [1, 1, 1, 1]
     finally:
-        if "added" in locals():
+        if added is not None:
             bpy.data.materials.remove(added)
         bpy.data.collections.remove(other)
         lighting.remove_binding(api, node, g.scene, mat)
