@@ -162,14 +162,16 @@ def _search(fit, j, held, widths, views, get):
     return trial(res.x)
 
 
-def settle(fit: M.Fit, log=print, only=None) -> tuple:
+def settle(fit: M.Fit, log=print, only=None, measure=True) -> tuple:
     """``(fit, moved)``: ``fit`` where, for every pair of neighbouring
     nodes a member crosses the clamp between, the better of moving it to
     the clamp at the other node too and moving it off the clamp at the
     neighbour (to the other node's alpha), each with that node's weights
     solved again, where it lowers the largest error around the two nodes
-    by MIN_GAIN; ``moved`` lists the nodes changed.  Measured.  ``only``:
-    these pairs ``(j, i)`` of :func:`crossings` alone."""
+    by MIN_GAIN; ``moved`` lists the nodes changed.  Measured
+    (``measure=False``: ``measured`` left empty, for a caller that reads
+    only the weights).  ``only``: these pairs ``(j, i)`` of
+    :func:`crossings` alone."""
     t = fit.target
     views, _u = M.view_nodes()
     current = M.Fit(t, fit.width_values, fit.multipliers.copy(), fit.weights.copy(),
@@ -203,5 +205,10 @@ def settle(fit: M.Fit, log=print, only=None) -> tuple:
         if kept:
             current = trials[best][1]
             moved.append(trials[best][0])
-    current.measured = M.measure(current) if moved else dict(fit.measured or M.measure(fit))
+    if not measure:
+        current.measured = {}
+    elif moved:
+        current.measured = M.measure(current)
+    else:
+        current.measured = dict(fit.measured or M.measure(fit))
     return current, sorted(moved)

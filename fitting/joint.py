@@ -325,7 +325,8 @@ def region(fit: M.Fit, level=REGION, get=None):
 
 
 def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
-          albedo_weight=ALBEDO_WEIGHT, views=FIT_VIEWS_DEG, edge=None, fresnel=(), bound=None):
+          albedo_weight=ALBEDO_WEIGHT, views=FIT_VIEWS_DEG, edge=None, fresnel=(), bound=None,
+          get=None, measure=True):
     """``fit`` with the weight series of the nodes ``free`` (default:
     :func:`region`) solved together (module docstring), measured; ``None``
     where the programme fails or there is nothing to solve.  ``rise``: how
@@ -340,13 +341,19 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
     rescales the members' errors light by light, and the diffuse member's
     by one F per view: a series solved without it let the error with a
     dielectric rise, Blinn with separable Smith at beta 46-49 deg 0.0324
-    -> 0.0351)."""
+    -> 0.0351).  ``get``: a :class:`.polish.SampleCache` of the fit's
+    target to take the model's samples from (a new one if not given);
+    ``measure=False`` leaves the result unmeasured (``measured`` empty:
+    :func:`.mixtures.measure` samples the whole width range, most of the
+    time of a solve of one node), for a caller that reads only the series."""
     import highspy
     import scipy.sparse as sp
 
     target = fit.target
     series = fit.weight_series.copy()
-    get = SampleCache(target)
+    if get is not None and get.target is not target:
+        raise ValueError("get: a SampleCache of the fit's own target")
+    get = get or SampleCache(target)
     free = region(fit, level=level, get=get) if free is None else set(free)
     if not free:
         return None
@@ -466,6 +473,6 @@ def solve(fit: M.Fit, free=None, log=print, rise=RISE, level=REGION, cap=None,
     for n, j in enumerate(B.used):
         out_series[j] = x[n * K * N:(n + 1) * K * N].reshape(K, N)
     out = with_series(fit, out_series)
-    out.measured = M.measure(out)
+    out.measured = M.measure(out) if measure else {}
     out.programme_worst = float(x[B.T])  # the programme's own optimum, at its widths and views
     return out

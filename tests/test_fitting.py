@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from pathlib import Path
@@ -469,8 +470,11 @@ def test_the_joint_re_solve_lowers_the_error_a_node_makes_and_touches_no_other_n
     around = [float(nodes[j] + f * (nodes[i] - nodes[j])) for i in (j - 1, j + 1)
               for f in (0.0, 0.25, 0.5, 0.75)]
     before = _window_errors(fit, around, get, views)[:, 0]
-    solved = joint.solve(fit, free={j}, log=lambda _m: None)
-    assert solved is not None
+    # the test's samples shared; unmeasured: the test measures its own widths
+    solved = joint.solve(fit, free={j}, log=lambda _m: None, get=get, measure=False)
+    assert solved is not None and solved.measured == {}
+    with pytest.raises(ValueError, match="own target"):  # checked before any work
+        joint.solve(fit, free={j}, get=polish.SampleCache(copy.copy(fit.target)))
     after = _window_errors(solved, around, get, views)[:, 0]
     # 0.8 x the weights errs by ~0.1 of the peak; the fit had ~0.02 there
     assert before.max() > 0.05 and after.max() < 0.03, (before, after)
@@ -504,7 +508,7 @@ def test_one_width_off_in_albedo_lets_no_other_width_drift_off(monkeypatch):
     j = 13
     fit.weights[j - 1] *= 1.2
     get = polish.SampleCache(fit.target)
-    solved = joint.solve(fit, free={j}, log=lambda _m: None)
+    solved = joint.solve(fit, free={j}, log=lambda _m: None, get=get, measure=False)
     assert solved is not None
     B = joint._Blocks(solved, solved.weight_series, get, {j})
     _e70, _e85, albedo = B.errors(B.x_of(solved.weight_series))
@@ -605,7 +609,7 @@ def test_the_joint_re_solve_holds_the_error_with_fresnel():
     rises = []
     for fresnel in (F, ()):
         solved = joint.solve(fit, free={j}, log=lambda _m: None, fresnel=fresnel, bound=0.025,
-                             **where)
+                             get=get, measure=False, **where)
         assert solved is not None
         after, now = errors(solved)
         assert after.max() < none.max() - 0.0005, (none.max(), after.max())
@@ -631,7 +635,7 @@ def test_the_joint_re_solve_keeps_each_views_error_where_it_was():
     fit = M.load_fits([key])[key]
     j = 4
     get = polish.SampleCache(fit.target)
-    solved = joint.solve(fit, free={j}, log=lambda _m: None)
+    solved = joint.solve(fit, free={j}, log=lambda _m: None, get=get, measure=False)
     assert solved is not None
 
     def per_view(f):
@@ -727,7 +731,7 @@ def test_a_member_crossing_the_alpha_limit_between_two_nodes_is_settled(monkeypa
     assert M.alphas_from_multipliers([zk], t.equivalent_alpha(float(nodes[j])))[0] == M.ALPHA_MAX
 
     monkeypatch.setattr(clamp, "SEARCH_ITERATIONS", 4)  # the search's path, not its 40 steps
-    settled, moved = clamp.settle(fit, log=lambda _m: None, only={(j, j + 1)})
+    settled, moved = clamp.settle(fit, log=lambda _m: None, only={(j, j + 1)}, measure=False)
     assert moved in ([j], [j + 1])
     get = polish.SampleCache(t)
     views = tuple(float(d) for d in M.MEASURE_VIEWS_DEG if d <= 70)
