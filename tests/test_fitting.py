@@ -427,7 +427,7 @@ def test_a_re_solved_node_makes_no_width_of_its_window_worse():
     70 and up to 85 deg, at the views it solves at (checked here through
     the shaders' own evaluation, not the programme's rows)."""
     from fitting import polish
-    key = "microfacet/trowbridge_reitz/smith/alpha"
+    key = "microfacet/blinn/smith/beta"
     fit = M.load_fits([key])[key]
     nodes = fit.width_values
     get = polish.SampleCache(fit.target)
