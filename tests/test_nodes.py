@@ -830,6 +830,73 @@ def test_sidebar_names_hybrid_objects_that_also_use_other_materials_and_sized_la
     api.unbind_light(node)
 
 
+def test_the_interactive_sidebar_keeps_what_walks_every_object_until_the_next_update(
+        ui, bpy, monkeypatch):
+    """In the interactive UI the hybrid labels and the groups the scene's
+    materials use (each read by walking every object) are read at the
+    first redraw of the sidebar and kept for the next ones until an update
+    of the depsgraph, an undo or a redo, or a file opened: each makes the
+    next redraw read them again, and then it says what changed.  Without
+    a UI (here) every draw reads them."""
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    scene = bpy.context.scene
+    mat, plain = new_material(bpy, "rm kept hybrid"), new_material(bpy, "rm kept plain")
+    node = api.add_model(mat, "lambert", mode="hybrid")
+    mesh = bpy.data.meshes.new("rm kept")
+    mesh.materials.append(mat)
+    obj = bpy.data.objects.new("rm kept", mesh)
+    scene.collection.objects.link(obj)
+    sun = bpy.data.objects.new("rm kept sun", bpy.data.lights.new("rm kept sun", "SUN"))
+    scene.collection.objects.link(sun)
+    other = new_material(bpy, "rm kept other")
+    other_node = api.add_model(other, "lambert", mode="hybrid")
+    ctx = node_context(scene, node)
+    message = "1 excluded object(s) also use other materials, which the bound lamps no longer light"
+    reads = []
+    read = ui.hybrid_linking_labels
+    monkeypatch.setattr(ui, "hybrid_linking_labels",
+                        lambda *a: reads.append(a[1].as_pointer()) or read(*a))
+    try:
+        api.bind_light(node, sun)
+        api.bind_light(other_node, sun)
+        assert ui._keeps_reads() is False  # no UI here: read at every draw
+        sidebar_labels(bpy, ctx)
+        sidebar_labels(bpy, ctx)
+        assert len(reads) == 2
+        monkeypatch.setattr(ui, "_keeps_reads", lambda: True)
+        for forget in (lambda: ui.on_depsgraph_update_post(scene, None),
+                       ui.on_undo_redo_post, ui.on_load_post):
+            forget()
+            reads.clear()
+            assert message not in sidebar_labels(bpy, ctx)
+            mesh.materials.append(plain)  # no update yet: the labels kept say nothing of it
+            assert message not in sidebar_labels(bpy, ctx) and reads == [node.as_pointer()]
+            sidebar_labels(bpy, node_context(scene, other_node))  # another node: its own
+            assert reads == [node.as_pointer(), other_node.as_pointer()]
+            forget()
+            assert message in sidebar_labels(bpy, ctx)
+            assert message in sidebar_labels(bpy, ctx) and reads.count(node.as_pointer()) == 2
+            mesh.materials.pop()
+        forced = "A node forced to OSL renders black here"
+        osl = scene.cycles.shading_system
+        scene.cycles.shading_system = False
+        ui.forget_kept_reads()
+        assert forced not in sidebar_labels(bpy, ctx)
+        api.set_params(node, backend="osl")  # no update yet
+        assert forced not in sidebar_labels(bpy, ctx)
+        ui.on_depsgraph_update_post(scene, None)
+        assert forced in sidebar_labels(bpy, ctx)
+        scene.cycles.shading_system = osl
+    finally:
+        api.unbind_light(node)
+        api.unbind_light(other_node)
+        ui.forget_kept_reads()
+        bpy.data.objects.remove(obj)
+        bpy.data.objects.remove(sun)
+        for m in (mat, plain, other):
+            bpy.data.materials.remove(m)
+
+
 def test_sidebar_names_unevenly_scaled_spot_lamps(ui, bpy):
     """Cycles scales a spot's cone with the lamp's scale where it is not
     the same along the three axes (tests/test_lighting.py renders it);
