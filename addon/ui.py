@@ -970,7 +970,8 @@ def _sync_light_linking(in_render=False):
     material since, the lights whose bound lamp was deleted, and those
     whose lamp's type, collections or light data changed (bound again:
     measured in a render handler, the render then the same as after
-    binding by hand, to the bit)."""
+    binding by hand, to the bit).  What the sidebar kept is dropped."""
+    forget_kept_reads()
     _logged(*_RELEASE_DELETED)
     _logged(*_REBIND_CHANGED)
     _update_linking("render" if in_render else None)
