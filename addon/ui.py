@@ -624,11 +624,11 @@ def _draw_node(layout, context, node):
 
 
 # What the sidebar reads that walks every object of the scene (which RM
-# groups its materials use; a hybrid node's light-linking labels: 0.15 and
-# 0.17 s at 10,000 objects, ``make bench``), read at its first redraw and
-# kept for the next ones in the interactive UI until the next update (of
-# the depsgraph, an undo or a redo, a file opened): a redraw alone (the
-# pointer over the panel) changes nothing read.  Plain data, no Blender
+# groups its materials use; a hybrid node's light-linking labels: up to
+# 0.15 and 0.16 s at 10,000 objects, ``make bench``), read at its first
+# redraw and kept for the next ones in the interactive UI until the next
+# update of the depsgraph, undo or redo, file opened, render or save: a
+# redraw alone (the pointer over the panel) changes nothing read.  Plain data, no Blender
 # data, keyed by what was read.  Without a UI (background, scripts)
 # nothing is redrawn and nothing is kept.
 _kept_reads = {}

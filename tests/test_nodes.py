@@ -838,16 +838,12 @@ def test_the_interactive_sidebar_keeps_what_walks_every_object_until_the_next_up
     of the depsgraph, an undo or a redo, or a file opened: each makes the
     next redraw read them again, and then it says what changed.  Without
     a UI (here) every draw reads them."""
-    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
-    scene = bpy.context.scene
-    mat, plain = new_material(bpy, "rm kept hybrid"), new_material(bpy, "rm kept plain")
-    node = api.add_model(mat, "lambert", mode="hybrid")
+    api, scene, mat, node, sun = _hybrid_lambert_under_a_sun(ui, bpy, "rm kept")
+    plain = new_material(bpy, "rm kept plain")
     mesh = bpy.data.meshes.new("rm kept")
     mesh.materials.append(mat)
     obj = bpy.data.objects.new("rm kept", mesh)
     scene.collection.objects.link(obj)
-    sun = bpy.data.objects.new("rm kept sun", bpy.data.lights.new("rm kept sun", "SUN"))
-    scene.collection.objects.link(sun)
     other = new_material(bpy, "rm kept other")
     other_node = api.add_model(other, "lambert", mode="hybrid")
     ctx = node_context(scene, node)
@@ -878,23 +874,17 @@ def test_the_interactive_sidebar_keeps_what_walks_every_object_until_the_next_up
             assert message in sidebar_labels(bpy, ctx) and reads.count(node.as_pointer()) == 2
             mesh.materials.pop()
         forced = "A node forced to OSL renders black here"
-        osl = scene.cycles.shading_system
-        scene.cycles.shading_system = False
+        scene.render.engine, scene.cycles.shading_system = 'CYCLES', False
         ui.forget_kept_reads()
         assert forced not in sidebar_labels(bpy, ctx)
         api.set_params(node, backend="osl")  # no update yet
         assert forced not in sidebar_labels(bpy, ctx)
         ui.on_depsgraph_update_post(scene, None)
         assert forced in sidebar_labels(bpy, ctx)
-        scene.cycles.shading_system = osl
     finally:
-        api.unbind_light(node)
         api.unbind_light(other_node)
         ui.forget_kept_reads()
-        bpy.data.objects.remove(obj)
-        bpy.data.objects.remove(sun)
-        for m in (mat, plain, other):
-            bpy.data.materials.remove(m)
+        _remove_hybrid_scene(bpy, api, node, scene, mat, [obj, sun, sun.data, mesh, plain, other])
 
 
 def test_sidebar_names_unevenly_scaled_spot_lamps(ui, bpy):
