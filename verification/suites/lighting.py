@@ -65,10 +65,11 @@ def _backend(osl, eevee):
     return "eevee" if eevee else "osl" if osl else "native"
 
 
-def _use_backend(scene, api, backend):
+def _use_backend(scene, api, backend, mode=None):
     """Set ``scene`` up for ``backend`` (:func:`.verify.use_backend`, which
-    calls the native nodes in Cycles "svm")."""
-    verify.use_backend(scene, {"native": "svm"}.get(backend, backend), api)
+    calls the native nodes in Cycles "svm"; ``mode`` "exact": the scene
+    holds exact-mode materials alone)."""
+    verify.use_backend(scene, {"native": "svm"}.get(backend, backend), api, mode)
 
 
 def _measure(eevee):
@@ -93,7 +94,7 @@ def several_lamps(api, lamps: str, model: str, params: dict, *, osl: bool, resol
     mat = _material(name)
     node = api.add_model(mat, model, mode="exact", **params)
     s = lit.build_lit_scene(mat, lamp_set, resolution=resolution, name=name)
-    _use_backend(s.scene, api, backend)
+    _use_backend(s.scene, api, backend, "exact")
     try:
         api.bind_light(node, *s.lamp_objects)
         bound = [o.name for o in api.bound_lights(node)]
