@@ -2,8 +2,8 @@
 """Chebyshev series of special functions, computed in high precision.
 
 - :func:`erfc_module`: the coefficients of ``addon.core.reference.special``'s
-  erfc (40-digit mpmath: double-precision coefficients from a double DCT
-  carry ~1e-15 of noise each, which the series then sums).
+  erfc, computed in 40-digit mpmath (double-precision coefficients from a
+  double-precision fit carry ~1e-15 of noise each, which the sums add up).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from .codegen import array, banner, number
 
 SMALL = 0.5   # below: erf's Maclaurin series
 LARGE = 4.0   # above: the series in w = (LARGE / x)^2
-N_MIDDLE = 32
+RATIONAL_DEGREES = (8, 9)   # erfc(x) exp(x^2) below LARGE: 4e-19 relative, in 40 digits
 N_LARGE = 20
 
 
@@ -34,6 +34,37 @@ def chebyshev_mp(f, a, b, n, dps=40):
     return coeffs
 
 
+def rational_mp(f, a, b, m, n, points=120, steps=3, dps=40):
+    """Coefficients (ascending powers of x) of P, degree ``m``, and Q,
+    degree ``n`` with Q(0) = 1, such that P/Q is ``f`` (an mpmath function)
+    on [a, b] to within a small relative error: least squares of
+    (P - f Q)/(f Q') at ``points`` Chebyshev points, Q' the last step's Q
+    (1 at first), ``steps`` times (Sanathanan and Koerner's iteration; for
+    erfc's R it settles at the second step).  As doubles, computed with
+    ``dps`` digits."""
+    with mpmath.workdps(dps):
+        a, b = mpmath.mpf(a), mpmath.mpf(b)
+        half = mpmath.mpf(1) / 2
+        xs = [a + (b - a) * (mpmath.cos(mpmath.pi * (k + half) / points) + 1) / 2
+              for k in range(points)]
+        fs = [f(x) for x in xs]
+        q_last = [mpmath.mpf(1)] * points
+        for _step in range(steps):
+            rows, rhs = mpmath.matrix(points, m + 1 + n), mpmath.matrix(points, 1)
+            for i, (x, fx) in enumerate(zip(xs, fs)):
+                w = 1 / (fx * q_last[i])
+                for j in range(m + 1):
+                    rows[i, j] = x ** j * w
+                for j in range(1, n + 1):
+                    rows[i, m + j] = -fx * x ** j * w
+                rhs[i] = fx * w
+            sol, _residual = mpmath.qr_solve(rows, rhs)
+            p = [sol[j] for j in range(m + 1)]
+            q = [mpmath.mpf(1)] + [sol[m + j] for j in range(1, n + 1)]
+            q_last = [mpmath.fsum(c * x ** j for j, c in enumerate(q)) for x in xs]
+        return [float(c) for c in p], [float(c) for c in q]
+
+
 def _r(x):
     return mpmath.erfc(x) * mpmath.exp(x * x)
 
@@ -46,16 +77,19 @@ def _log_xr(w):
 
 
 def erfc_module() -> str:
-    middle = chebyshev_mp(_r, SMALL, LARGE, N_MIDDLE)
+    numerator, denominator = rational_mp(_r, 0, LARGE, *RATIONAL_DEGREES)
     large = chebyshev_mp(_log_xr, 0, 1, N_LARGE)
     return "".join([
         banner("fitting/series.py"),
-        '"""Chebyshev coefficients of erfc (see addon/core/reference/special.py):\n',
-        "R(x) = erfc(x) exp(x^2) on [SMALL, LARGE] in u = 2 (x - SMALL)/(LARGE - SMALL) - 1,\n",
-        'and log(x R(x) sqrt(pi)) for x >= LARGE in 2 w - 1, w = (LARGE / x)^2."""\n\n',
+        '"""Coefficients of erfc (see addon/core/reference/special.py): R(x) =\n',
+        "erfc(x) exp(x^2) on [0, LARGE] as R_NUMERATOR(x) / R_DENOMINATOR(x), polynomials\n",
+        "in x by ascending powers, and the Chebyshev series of log(x R(x) sqrt(pi)) for\n",
+        "x >= LARGE in 2 w - 1, w = (LARGE / x)^2.  Below SMALL erf takes its own\n",
+        "series.\"\"\"\n\n",
         f"SMALL = {number(SMALL)}\n",
         f"LARGE = {number(LARGE)}\n",
-        f"R_MIDDLE = {array(middle)}\n",
+        f"R_NUMERATOR = {array(numerator)}\n",
+        f"R_DENOMINATOR = {array(denominator)}\n",
         f"LOG_XR_LARGE = {array(large)}\n",
     ])
 
