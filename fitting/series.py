@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Chebyshev series of special functions, computed in high precision.
+"""Series of special functions (Chebyshev and rational), computed in high
+precision.
 
 - :func:`erfc_module`: the coefficients of ``addon.core.reference.special``'s
   erfc, computed in 40-digit mpmath (double-precision coefficients from a

@@ -91,8 +91,8 @@ def _horner(coeffs, x):
 
 def erfcx_nonnegative(z):
     """The scaled complementary error function R(z) = erfc(z) exp(z^2) for
-    z >= 0 (inf: 0; no NaN): the rational below LARGE, exp(S(w)) / (z sqrt
-    pi) from LARGE on.  erfc is R times :func:`exp_minus_square`, and
+    z >= 0, inf included (R = 0 there), not NaN: the rational below LARGE,
+    exp(S(w)) / (z sqrt pi) from LARGE on.  erfc is R times :func:`exp_minus_square`, and
     Beckmann's Smith Lambda takes R itself (one exp(-z^2) for both terms)."""
     below = np.minimum(z, _erfc_fit.LARGE)
     r = _horner(_erfc_fit.R_NUMERATOR, below)
