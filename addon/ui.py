@@ -628,9 +628,9 @@ def _draw_node(layout, context, node):
 # 0.15 and 0.16 s at 10,000 objects, ``make bench``), read at its first
 # redraw and kept for the next ones in the interactive UI until the next
 # update of the depsgraph, undo or redo, file opened, render or save: a
-# redraw alone (the pointer over the panel) changes nothing read.  Plain data, no Blender
-# data, keyed by what was read.  Without a UI (background, scripts)
-# nothing is redrawn and nothing is kept.
+# redraw alone (the pointer over the panel) changes nothing read.  Plain
+# data, no Blender data, keyed by what was read.  Without a UI
+# (background, scripts) nothing is redrawn and nothing is kept.
 _kept_reads = {}
 
 
@@ -661,15 +661,15 @@ def _draw_hybrid_linking(box, scene, node, bound, repair_shown=False):
            tuple(lamp.as_pointer() for lamp in bound), bool(repair_shown))
     items = _kept(key, lambda: hybrid_linking_labels(scene, node, bound, repair_shown))
     for text, icon in items:
-        if text == NODE_OT_rm_sync_light_linking.bl_idname:
-            box.operator(text, icon=icon)
+        if text is None:
+            box.operator(NODE_OT_rm_sync_light_linking.bl_idname, icon=icon)
         else:
             box.label(text=text, icon=icon)
 
 
 def hybrid_linking_labels(scene, node, bound, repair_shown=False) -> tuple:
     """What :func:`_draw_hybrid_linking` draws, read now: ``(text, icon)``
-    per label, the repair operator's idname for its button."""
+    per label, text None for the repair operator's button."""
     out = []
     hybrid = lighting.hybrid_bindings()  # read once for the labels below
     partly = lighting.also_other_materials(node, hybrid)
@@ -690,7 +690,7 @@ def hybrid_linking_labels(scene, node, bound, repair_shown=False) -> tuple:
         out.append(("Bound to no node, yet not lighting the hybrid objects (a copy of a "
                     "bound lamp?): " + ", ".join(o.name for o in stray), 'ERROR'))
     if (missing or stray) and not repair_shown:
-        out.append((NODE_OT_rm_sync_light_linking.bl_idname, 'FILE_REFRESH'))
+        out.append((None, 'FILE_REFRESH'))
     from_library = lighting.linked_lamps(node)
     if from_library:
         remedy = ("make a library override" if lighting.override_keeps_light_linking()

@@ -167,11 +167,10 @@ def test_eevee_s_exact_mode_reads_none_of_its_shadow_maps(verify, api, bpy):
     the gonio (5.x; 4.5 has no Raycast node): the same bit for bit with
     EEVEE's shadows on."""
     from addon.backends.native.build import has_raycast
-    from verification.suites.verify import dispose, new_material, remove_material, set_sun
     light = gonio.normalize((0.5, 0.0, 0.2))
-    mat = new_material("rm_eevee_shadow_maps")
+    mat = verify.new_material("rm_eevee_shadow_maps")
     node = api.add_model(mat, "kajiya_kay", mode="exact")
-    set_sun(node, light, 1.0)
+    verify.set_sun(node, light, 1.0)
     g = gonio.build_gonio_scene(mat, light_dir=light, resolution=64, name="eevee_shadow_maps")
     try:
         verify.use_backend(g.scene, "eevee", api, "exact")
@@ -186,8 +185,8 @@ def test_eevee_s_exact_mode_reads_none_of_its_shadow_maps(verify, api, bpy):
         assert np.array_equal(images[True], images[False])
         assert np.all(np.isfinite(images[True])) and images[True][lit].max() > 0.0
     finally:
-        dispose(g)
-        remove_material(mat)
+        verify.dispose(g)
+        verify.remove_material(mat)
 
 
 BLACK_CASES = [

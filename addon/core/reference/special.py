@@ -54,7 +54,7 @@ def clenshaw(t, coeffs):
     return coeffs[0] + t * b1 - b2
 
 
-def exp_minus_square(z):
+def _exp_minus_square(z):
     """exp(-z^2) for z >= 0, to double precision (z split at a 1/4096 grid);
     0 from z = 40 on (exp(-1600) underflows), where the split would give
     0 times an overflow."""
@@ -92,7 +92,7 @@ def _horner(coeffs, x):
 def erfcx_nonnegative(z):
     """The scaled complementary error function R(z) = erfc(z) exp(z^2) for
     z >= 0, inf included (R = 0 there), not NaN: the rational below LARGE,
-    exp(S(w)) / (z sqrt pi) from LARGE on.  erfc is R times :func:`exp_minus_square`, and
+    exp(S(w)) / (z sqrt pi) from LARGE on.  erfc is R times exp(-z^2), and
     Beckmann's Smith Lambda takes R itself (one exp(-z^2) for both terms)."""
     below = np.minimum(z, _erfc_fit.LARGE)
     r = _horner(_erfc_fit.R_NUMERATOR, below)
@@ -110,7 +110,7 @@ def erfcx_nonnegative(z):
 def _erfc_nonnegative(z):
     """erfc(z) for z >= 0 (inf included; no NaN)."""
     r = erfcx_nonnegative(z)
-    r *= exp_minus_square(z)
+    r *= _exp_minus_square(z)
     return r
 
 
