@@ -47,6 +47,7 @@ import numpy as np
 
 from . import groups, lighting
 from .core import catalogue
+from .core.formulas import models as formulas
 from .core.validation import validate
 
 MODES = {"path_traced": "BSDF", "exact": "Direct", "hybrid": ("BSDF", "Direct")}
@@ -57,8 +58,8 @@ SUPPORTED_LIGHTS = lighting.SUPPORTED_LIGHTS
 __all__ = ["add_model", "set_params", "set_mode", "get_mode", "bind_light", "unbind_light",
            "bound_light", "bound_lights", "light_drivers", "sync_light_linking",
            "deferred_light_linking", "enable_osl",
-           "osl_status", "rendering_backend", "ensure_groups", "upgrade_groups", "apply_metal",
-           "use_strand_tangent", "MODES", "METALS", "BACKENDS"]
+           "osl_status", "rendering_backend", "bsdf_accuracy", "ensure_groups", "upgrade_groups",
+           "apply_metal", "use_strand_tangent", "MODES", "METALS", "BACKENDS"]
 
 
 # ---------------------------------------------------------------------------
@@ -426,6 +427,66 @@ def rendering_backend(scene=None) -> tuple:
     if not problems:
         return "osl", "Cycles with Open Shading Language" + (f" ({warnings[0]})" if warnings else "")
     return "native", "; ".join(problems)
+
+
+def bsdf_accuracy(node, scene=None) -> dict:
+    """How the BSDF output of RM group ``node`` matches its model where
+    ``scene`` (default: the context scene) renders it, as set now, at the
+    node's width and Fresnel indices (its variant's worst width where one
+    of those inputs is linked).  A dict:
+
+    - ``"backend"``: the shaders that render the node: "osl", "native"
+      (its own ``backend`` choice, or the scene's for "auto"), or "none"
+      (forced to OSL where the scene does not run it, or an engine that
+      draws no materials);
+    - ``"status"``: "exact" (a Cycles closure is the model), "near"
+      (Cycles' closure, under 1 % off), "fitted" (a fitted mixture within
+      0.025 of the peak), "approx" (measured or not, no bound; EEVEE's own
+      closures are this) or "none" (nothing renders it);
+    - ``"max_abs_over_peak"``: the largest |output - model| over the
+      model's peak that the offline fitter measured (views and lights up to
+      70 deg; ``docs/verification.md``), or None where none was;
+    - ``"note"``: where that figure holds ("at this width", "at its worst
+      width"), or why there is none."""
+    model_id, variant = _rm_node_info(node)
+    scene = _scene(scene, "bsdf_accuracy")
+    backend, reason = rendering_backend(scene)
+    forced = variant.get(groups.BACKEND_PARAM.name, "auto")
+    if backend != "none" and forced != "auto" and forced != backend:
+        if forced == "osl":
+            problems = "; ".join(osl_status(scene)[0])
+            backend, reason = "none", f"forced to OSL, which this scene does not run: {problems}"
+        else:
+            backend = forced
+    if backend == "none":
+        return {"backend": "none", "status": "none", "max_abs_over_peak": None, "note": reason}
+    if lighting.is_eevee(scene):
+        return {"backend": backend, "status": "approx", "max_abs_over_peak": None,
+                "note": "EEVEE's own closures: not measured by the fitter"}
+    params = _path_traced_params(node)
+    enums = {k: v for k, v in variant.items()
+             if k not in (groups.BACKEND_PARAM.name, groups.LIGHTS_PARAM.name)}
+    status = formulas.path_traced_status(model_id, enums, params, bpy.app.version, backend)
+    error, note = formulas.path_traced_error(model_id, enums, params, bpy.app.version, backend)
+    return {"backend": backend, "status": status, "max_abs_over_peak": error, "note": note}
+
+
+def _path_traced_params(node):
+    """The widths and Fresnel indices of ``node`` that the BSDF output's
+    status depends on (:func:`~.core.formulas.models.path_traced_status`),
+    or None where one of them is linked (its value is the link's)."""
+    params = {}
+    for name in (*(n for names in groups.WIDTH_SOCKETS.values() for n in names), "ior", "k"):
+        try:
+            socket = groups.input_socket(node, name)
+        except KeyError:
+            continue
+        if socket.is_linked:
+            return None
+        value = socket.default_value
+        params[name] = float(value) if isinstance(value, (int, float)) else \
+            tuple(float(v) for v in value[:3])
+    return params
 
 
 def _compute_device_type():

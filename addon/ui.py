@@ -544,8 +544,8 @@ def _draw_node(layout, context, node):
     row.operator_menu_enum(NODE_OT_rm_set_mode.bl_idname, "mode",
                            text=dict((m, label) for m, label, _d in MODE_ITEMS)[mode])
     if mode != "exact":
-        text, icon = bsdf_status_text(context.scene, model_id, variant, node)
-        box.label(text=text, icon=icon)
+        for text, icon in bsdf_status_lines(context.scene, node):
+            box.label(text=text, icon=icon)
     bound = api.bound_lights(node)
     box.label(text="Lamps: " + (", ".join(o.name for o in bound) if bound
                                 else "none (the Light inputs)"), icon='LIGHT')
@@ -709,32 +709,24 @@ _STATUS_TEXT = {
     "near": ("BSDF output: near (Cycles' closure, under 1 % off)", 'CHECKMARK'),
     "fitted": (f"BSDF output: fitted (within {formulas.FIT_BOUND:g} of the peak)", 'CHECKMARK'),
     "approx": ("BSDF output: approximate (Direct is exact)", 'INFO'),
+    "none": ("BSDF output: not rendered", 'ERROR'),
 }
 
 
-def bsdf_status_text(scene, model_id, variant, node) -> tuple:
-    """``(text, icon)``: how the node's BSDF output matches the model with the
-    scene's current settings (docs/verification.md's statuses), at the
-    node's width and Fresnel indices where those sockets are not linked."""
-    backend, _reason = api.rendering_backend(scene)
-    if backend == "none":  # Workbench: no shader nodes
-        return "BSDF output: not rendered", 'ERROR'
-    if scene.render.engine != 'CYCLES':
-        return "BSDF output: EEVEE's own closures (approximate)", 'INFO'
-    params = {}
-    for name in (*(n for names in groups.WIDTH_SOCKETS.values() for n in names), "ior", "k"):
-        try:
-            socket = groups.input_socket(node, name)
-        except KeyError:
-            continue
-        if socket.is_linked:  # its value is the link's: the variant's status
-            params = None
-            break
-        value = socket.default_value
-        params[name] = float(value) if isinstance(value, (int, float)) else \
-            tuple(float(v) for v in value[:3])
-    status = formulas.path_traced_status(model_id, variant, params, bpy.app.version, backend)
-    return _STATUS_TEXT[status]
+def bsdf_status_lines(scene, node) -> list:
+    """``[(text, icon), ...]``: how the node's BSDF output matches the model
+    with the scene's current settings (:func:`api.bsdf_accuracy`): the
+    status, then the fitter's measured difference and where it holds, or
+    why none is given."""
+    accuracy = api.bsdf_accuracy(node, scene)
+    status, error, note = accuracy["status"], accuracy["max_abs_over_peak"], accuracy["note"]
+    lines = [_STATUS_TEXT[status]]
+    if status in ("exact", "near"):
+        return lines
+    if error is None:
+        return lines + [(note[:1].upper() + note[1:], 'BLANK1')]
+    return lines + [(f"Measured: at most {error:.2g} of the peak off", 'BLANK1'),
+                    (f"{note[:1].upper() + note[1:]}, views and lights to 70°", 'BLANK1')]
 
 
 # ---------------------------------------------------------------------------

@@ -537,9 +537,7 @@ def test_the_sidebar_status_reads_the_nodes_width_and_fresnel(api, bpy):
     scene.cycles.shading_system = True
 
     def status():
-        text, _icon = ui.bsdf_status_text(scene, "microfacet", nodes.rm_info(node.node_tree)[1],
-                                          node)
-        return text
+        return ui.bsdf_status_lines(scene, node)[0][0]
     fitted, approx = ui._STATUS_TEXT["fitted"][0], ui._STATUS_TEXT["approx"][0]
     variant = {"distribution": "blinn", "shadowing": "smith_correlated", "width_mode": "beta",
                "fresnel": "dielectric"}
@@ -553,6 +551,75 @@ def test_the_sidebar_status_reads_the_nodes_width_and_fresnel(api, bpy):
     value = mat.node_tree.nodes.new("ShaderNodeValue")
     mat.node_tree.links.new(value.outputs[0], nodes.input_socket(node, "beta"))
     assert status() == approx  # the width unknown: with Fresnel no bound holds
+
+
+def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
+    """``api.bsdf_accuracy`` (and the sidebar's lines from it): the status
+    with the fitter's figure where it measured one, at the node's width
+    (its worst width where the width is linked), the figure on the side of
+    FIT_BOUND the status says; the shaders that render the node, its own
+    backend choice included; why no figure where there is none."""
+    from addon import groups as nodes
+    from addon import ui
+    from addon.core.formulas import models as formulas
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = True
+    scene.cycles.device = "CPU"
+    mat = new_material(bpy)
+    node = api.add_model(mat, "microfacet", distribution="gaussian", shadowing="smith")
+    at_width = []
+    for deg in np.linspace(1.0, 85.0, 29):
+        api.set_params(node, beta=math.radians(float(deg)))
+        got = api.bsdf_accuracy(node, scene)
+        assert got["backend"] == "osl" and got["note"] == formulas.AT_THIS_WIDTH, got
+        error = got["max_abs_over_peak"]
+        assert 0.0 < error < 1.0, (deg, got)
+        assert got["status"] == ("fitted" if error <= formulas.FIT_BOUND else "approx"), got
+        at_width.append(error)
+    assert min(at_width) <= formulas.FIT_BOUND < max(at_width)  # both sides seen
+    value = mat.node_tree.nodes.new("ShaderNodeValue")
+    mat.node_tree.links.new(value.outputs[0], nodes.input_socket(node, "beta"))
+    worst = api.bsdf_accuracy(node)
+    assert worst["note"] == formulas.AT_WORST_WIDTH and worst["status"] == "approx"
+    assert worst["max_abs_over_peak"] >= max(at_width)
+    lines = ui.bsdf_status_lines(scene, node)
+    assert lines[0] == ui._STATUS_TEXT["approx"]
+    assert f"{worst['max_abs_over_peak']:.2g}" in lines[1][0], lines
+
+    glass = api.add_model(mat, "microfacet", fresnel="dielectric", ior=0.8)  # not measured
+    got = api.bsdf_accuracy(glass)
+    assert got["status"] == "approx" and got["max_abs_over_peak"] is None
+    assert "indices" in got["note"]
+    ward = api.bsdf_accuracy(api.add_model(mat, "ward"))
+    assert ward["status"] == "approx" and ward["max_abs_over_peak"] is None
+    assert "light direction" in ward["note"]
+
+    # Phong: OSL's phong_ramp is the model; the native nodes' Toon mixture is not
+    phong = api.add_model(mat, "phong")
+    assert api.bsdf_accuracy(phong)["status"] == "exact"
+    assert len(ui.bsdf_status_lines(scene, phong)) == 1
+    native = api.add_model(mat, "phong", backend="native")
+    got = api.bsdf_accuracy(native)
+    assert got["backend"] == "native" and got["status"] == "approx", got
+    assert got["max_abs_over_peak"] > formulas.FIT_BOUND and got["note"] == \
+        formulas.AT_WORST_WIDTH
+    forced = api.add_model(mat, "phong", backend="osl")
+    scene.cycles.shading_system = False
+    assert api.bsdf_accuracy(phong)["backend"] == "native"
+    got = api.bsdf_accuracy(forced)
+    assert (got["backend"], got["status"]) == ("none", "none"), got
+    assert "Open Shading Language is off" in got["note"]
+    assert ui.bsdf_status_lines(scene, forced)[0] == ui._STATUS_TEXT["none"]
+    scene.render.engine = "BLENDER_EEVEE" if bpy.app.version >= (5, 0) else "BLENDER_EEVEE_NEXT"
+    got = api.bsdf_accuracy(phong)
+    assert (got["backend"], got["status"], got["max_abs_over_peak"]) == \
+        ("native", "approx", None) and "EEVEE" in got["note"]
+
+    with pytest.raises(ValueError, match="not a Reflection Models node"):
+        api.bsdf_accuracy(value)
+    with pytest.raises(ValueError, match="takes a scene"):
+        api.bsdf_accuracy(phong, "Scene")
 
 
 def test_add_model_compiles_osl_in_a_plain_bpy_process(tmp_path):

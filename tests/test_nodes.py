@@ -771,7 +771,10 @@ def test_sidebar_shows_osl_state_variant_menus_and_bind_light(ui, bpy):
         ("node.rm_set_mode", "Path Traced", "mode"), ("node.rm_bind_light", "Bind One", "light")]
     assert "node.rm_upgrade_groups" not in ops
     # the BSDF output's status as the scene renders it: native nodes have no Phong lobe
-    assert ("label", "BSDF output: approximate (Direct is exact)") in [e[:2] for e in layout.log]
+    labels = [e[1] for e in layout.of("label")]
+    at = labels.index("BSDF output: approximate (Direct is exact)")
+    assert labels[at + 1].startswith("Measured: at most ") and \
+        labels[at + 2].startswith("At its worst width"), labels  # the fitter's figure
 
     scene.cycles.shading_system = True
     scene.cycles.device = "CPU"

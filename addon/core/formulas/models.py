@@ -135,6 +135,15 @@ class Formula:
         the widths where known (only the microfacet model's matter)."""
         return "approx"
 
+    def measured_error(self, enums: dict, caps=ALL_CLOSURES, params=None) -> tuple:
+        """``(error, where)``: the largest |BSDF output - model| over the
+        model's peak that the fitter measured for this output (views and
+        lights up to 70 deg) and where it holds ("at this width": the
+        interval of width nodes around the width in ``params``, with the
+        Fresnel's class; "at its worst width": over every width), or
+        ``(None, why)`` where none is measured."""
+        return None, "not measured by the fitter: a term depends on the light direction"
+
 
 class Lambert(Formula):
     model_id = "lambert"
@@ -153,6 +162,9 @@ class Lambert(Formula):
 
     def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return "exact"
+
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        return None, CLOSURE_IS_MODEL
 
 
 class Phong(Formula):
@@ -205,6 +217,14 @@ class Phong(Formula):
     def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return "exact" if "phong_ramp" in caps else fit_status("phong")
 
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        if "phong_ramp" in caps:
+            return None, CLOSURE_IS_MODEL
+        from . import mixtures
+        # the Toon mixture, which Cycles' native nodes render (EEVEE renders
+        # the Glossy one, with EEVEE's own closures)
+        return mixtures.toon_measured()["max_abs_over_peak_70"], AT_WORST_WIDTH
+
 
 class BlinnPhong(Formula):
     """Slide "Reflection Geometry": ks (N.H)^s, 'energy' times (s+8)/(8 pi)."""
@@ -236,6 +256,9 @@ class BlinnPhong(Formula):
     def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
         return fit_status("blinn_phong")
 
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        return fit_error("blinn_phong"), AT_WORST_WIDTH
+
 
 def fit_status(key):
     """The variant's status at any width, without Fresnel: "fitted" where
@@ -243,11 +266,24 @@ def fit_status(key):
     fitting/assemble.py) measured within FIT_BOUND by the fitter's measure
     and, where ``fitting/bounds.py`` measured it (views four times as
     dense), in every interval of its width nodes, else "approx"."""
+    return "fitted" if fit_error(key) <= FIT_BOUND else "approx"
+
+
+def fit_error(key):
+    """The variant's largest error over the peak at its worst width, without
+    Fresnel: the larger of the fitter's measure and, where
+    ``fitting/bounds.py`` measured it, its worst interval of width nodes
+    (what :func:`fit_status` compares with FIT_BOUND)."""
     from . import mixtures
-    if mixtures.measured(key)["max_abs_over_peak_70"] > FIT_BOUND:
-        return "approx"
     worst = mixtures.worst_interval(key, "none")
-    return "approx" if worst is not None and worst > FIT_BOUND else "fitted"
+    measured = mixtures.measured(key)["max_abs_over_peak_70"]
+    return measured if worst is None else max(measured, worst)
+
+
+# where a :meth:`Formula.measured_error` holds, and why there is none
+AT_THIS_WIDTH = "at this width"
+AT_WORST_WIDTH = "at its worst width"
+CLOSURE_IS_MODEL = "a Cycles closure is the model"
 
 
 def fit_status_at(key, value, fresnel, params):
@@ -534,26 +570,62 @@ class Microfacet(Formula):
         the clamped lobe: "approx".  So is a fitted mixture given in alpha
         beyond alpha 1 (its bound holds where the closures reach; the fitter
         measures the rest apart, 'beyond alpha 1')."""
-        dist, sh = enums.get("distribution"), enums.get("shadowing")
-        if sh == "smith_correlated" and dist in ("trowbridge_reitz", "beckmann"):
-            status = "exact" if dist == "trowbridge_reitz" else "near"
-            if params is not None and native_width_beyond_closures(dist, enums, params):
-                return "approx"
-            return status
-        if sh == "smith_1967" and dist != "beckmann":
-            sh = "smith"
-        mode = enums.get("width_mode", "beta")
-        native = dist in ("trowbridge_reitz", "beckmann") and mode != "beta"
-        key = f"microfacet/{dist}/{sh}/{'alpha' if native else 'beta'}"
-        fresnel = enums.get("fresnel", "none")
-        if mode == "alpha_xy" or (native and params is not None
-                                  and native_width_beyond_closures(dist, enums, params)):
+        kind, key, native = self._path_traced(enums, params)
+        if kind in ("exact", "near"):
+            return kind
+        if kind != "fit":
             return "approx"
+        fresnel = enums.get("fresnel", "none")
         if params is None:
             # the width unknown (a linked socket): the variant's worst width,
             # measured for F = 1 only
             return fit_status(key) if fresnel == "none" else "approx"
         return fit_status_at(key, self._width_value(native, params), fresnel, params)
+
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        kind, key, native = self._path_traced(enums, params)
+        if kind in ("exact", "near"):
+            return None, CLOSURE_IS_MODEL if kind == "exact" else \
+                "Cycles' Beckmann closure, its Lambda rational (under 1 % off)"
+        if kind == "beyond":
+            return None, "wider than Cycles' closures reach (alpha 1): not measured"
+        if kind == "anisotropic":
+            return None, "not measured by the fitter: its fits are for one width"
+        from . import mixtures
+        fresnel = enums.get("fresnel", "none")
+        if params is None:
+            if fresnel == "none":
+                return fit_error(key), AT_WORST_WIDTH
+            return None, "not measured with its width or indices linked"
+        cls = mixtures.fresnel_class(fresnel, params)
+        if cls is None:
+            return None, "not measured at these Fresnel indices"
+        bound = mixtures.interval_bound(key, self._width_value(native, params), cls)
+        if bound is None:
+            return None, "wider than Cycles' closures reach (alpha 1): not measured"
+        return bound, AT_THIS_WIDTH
+
+    def _path_traced(self, enums, params):
+        """``(kind, key, native)``: what the BSDF output is for the variant
+        ``enums`` at the widths ``params`` (None: not known): "exact" or
+        "near" (a closure), "beyond" (a native width wider than Cycles'
+        closures reach), "anisotropic" (widths alpha x and y) or "fit" (the
+        fitted data ``key``); ``native``: the width is alpha, not beta."""
+        dist, sh = enums.get("distribution"), enums.get("shadowing")
+        if sh == "smith_correlated" and dist in ("trowbridge_reitz", "beckmann"):
+            if params is not None and native_width_beyond_closures(dist, enums, params):
+                return "beyond", None, True
+            return ("exact" if dist == "trowbridge_reitz" else "near"), None, True
+        if sh == "smith_1967" and dist != "beckmann":
+            sh = "smith"
+        mode = enums.get("width_mode", "beta")
+        native = dist in ("trowbridge_reitz", "beckmann") and mode != "beta"
+        key = f"microfacet/{dist}/{sh}/{'alpha' if native else 'beta'}"
+        if mode == "alpha_xy":
+            return "anisotropic", key, native
+        if native and params is not None and native_width_beyond_closures(dist, enums, params):
+            return "beyond", key, native
+        return "fit", key, native
 
     @staticmethod
     def _width_value(native, params):
@@ -657,6 +729,19 @@ def path_traced_status(model_id: str, enums: dict, params=None, blender_version=
             status in ("exact", "near", "fitted"):
         return "approx"
     return status
+
+
+def path_traced_error(model_id: str, enums: dict, params=None, blender_version=(5, 2),
+                      backend: str = "osl") -> tuple:
+    """``(error, where)`` for the BSDF output as :func:`path_traced_status`
+    takes it: the fitter's largest |output - model| over the model's peak
+    (views and lights up to 70 deg) and where it holds, or ``(None, why)``
+    (:meth:`Formula.measured_error`)."""
+    caps = ALL_CLOSURES if backend == "osl" else NATIVE_CLOSURES
+    if path_traced_status(model_id, enums, params, blender_version, backend) == "approx" \
+            and FORMULAS[model_id].fidelity(enums, caps, params=params) != "approx":
+        return None, "Blender 4.5's conductor closure: an older Fresnel, not measured"
+    return FORMULAS[model_id].measured_error(enums, caps, params=params)
 
 
 def exact(model_id: str, v: Values, s: Shading, lights=None) -> dict:
