@@ -411,21 +411,32 @@ def osl_status(scene=None) -> tuple:
     return problems, warnings
 
 
-def rendering_backend(scene=None) -> tuple:
+def rendering_backend(scene=None, node=None) -> tuple:
     """``(backend, reason)``: which shaders an 'auto' node renders with in
     ``scene`` (default: the context scene) as it is set now: ``"osl"``
     (Cycles on the CPU, or OptiX, with Open Shading Language on),
     ``"native"`` (every other Cycles set-up and EEVEE), or ``"none"`` (an
-    engine that draws no materials, e.g. Workbench)."""
+    engine that draws no materials, e.g. Workbench).  With an RM group
+    ``node``, which render that node, its own ``backend`` choice counted:
+    a node forced to the native nodes renders them with OSL on too, and
+    one forced to OSL renders nothing ("none") where OSL does not run."""
     scene = _scene(scene, "rendering_backend")
+    forced = "auto" if node is None else \
+        _rm_node_info(node)[1].get(groups.BACKEND_PARAM.name, "auto")
     engine = scene.render.engine
-    if engine != 'CYCLES':
-        if lighting.is_eevee(scene):
-            return "native", "EEVEE runs native nodes"
+    if engine != 'CYCLES' and not lighting.is_eevee(scene):
         return "none", f"the {engine} engine does not render shader nodes"
     problems, warnings = osl_status(scene)
+    if forced == "native":
+        return "native", "the node is set to native nodes"
+    if forced == "osl" and problems:
+        return "none", "the node is set to OSL, which this scene does not run: " + \
+            "; ".join(problems)
+    if lighting.is_eevee(scene):
+        return "native", "EEVEE runs native nodes"
     if not problems:
-        return "osl", "Cycles with Open Shading Language" + (f" ({warnings[0]})" if warnings else "")
+        return "osl", "Cycles with Open Shading Language" + \
+            (f" ({warnings[0]})" if warnings else "")
     return "native", "; ".join(problems)
 
 
@@ -435,10 +446,9 @@ def bsdf_accuracy(node, scene=None) -> dict:
     node's width and Fresnel indices (its variant's worst width where one
     of those inputs is linked).  A dict:
 
-    - ``"backend"``: the shaders that render the node: "osl", "native"
-      (its own ``backend`` choice, or the scene's for "auto"), or "none"
-      (forced to OSL where the scene does not run it, or an engine that
-      draws no materials);
+    - ``"backend"``: the shaders that render the node
+      (:func:`rendering_backend` of the scene and the node): "osl",
+      "native" or "none";
     - ``"status"``: "exact" (a Cycles closure is the model), "near"
       (Cycles' closure, under 1 % off), "fitted" (a fitted mixture within
       0.025 of the peak), "approx" (measured or not, no bound; EEVEE's own
@@ -450,14 +460,7 @@ def bsdf_accuracy(node, scene=None) -> dict:
       width"), or why there is none."""
     model_id, variant = _rm_node_info(node)
     scene = _scene(scene, "bsdf_accuracy")
-    backend, reason = rendering_backend(scene)
-    forced = variant.get(groups.BACKEND_PARAM.name, "auto")
-    if backend != "none" and forced != "auto" and forced != backend:
-        if forced == "osl":
-            problems = "; ".join(osl_status(scene)[0])
-            backend, reason = "none", f"forced to OSL, which this scene does not run: {problems}"
-        else:
-            backend = forced
+    backend, reason = rendering_backend(scene, node)
     if backend == "none":
         return {"backend": "none", "status": "none", "max_abs_over_peak": None, "note": reason}
     if lighting.is_eevee(scene):

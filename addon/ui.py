@@ -618,9 +618,12 @@ def _draw_node(layout, context, node):
     if mode == "hybrid":
         _draw_hybrid_linking(box, context.scene, node, bound,
                              repair_shown=bool(deleted) or rebind)
-    if mode != "path_traced" and not native_build.has_raycast() \
-            and api.rendering_backend(context.scene)[0] == "native":
-        box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
+    if mode != "path_traced" and api.rendering_backend(context.scene, node)[0] == "native":
+        if not native_build.has_raycast():
+            box.label(text="Blender 4.5 native nodes: exact mode casts no shadows", icon='INFO')
+        elif lighting.is_eevee(context.scene):
+            box.label(text="EEVEE: exact mode's shadow ray is traced in screen space (only "
+                      "what the view sees casts a shadow)", icon='INFO')
 
 
 # What the sidebar reads that walks every object of the scene (which RM

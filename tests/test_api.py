@@ -602,6 +602,8 @@ def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
     native = api.add_model(mat, "phong", backend="native")
     got = api.bsdf_accuracy(native)
     assert got["backend"] == "native" and got["status"] == "approx", got
+    assert api.rendering_backend(scene)[0] == "osl"
+    assert api.rendering_backend(scene, native) == ("native", "the node is set to native nodes")
     assert got["max_abs_over_peak"] > formulas.FIT_BOUND and got["note"] == \
         formulas.AT_WORST_WIDTH
     forced = api.add_model(mat, "phong", backend="osl")

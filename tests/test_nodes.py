@@ -628,6 +628,36 @@ def sidebar_labels(bpy, ctx) -> list:
     return [e[1] for e in layout.of("label")]
 
 
+def test_sidebar_says_where_exact_mode_casts_no_or_screen_space_shadows(ui, bpy):
+    """Exact mode's shadow ray where the node's native nodes render: none in
+    Blender 4.5 (no Raycast node), screen space in EEVEE; a node set to
+    native nodes counts in a scene that runs OSL, an automatic one not."""
+    nodes = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".groups")
+    api = importlib.import_module(ui.__name__.rsplit(".", 1)[0] + ".api")
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = True
+    scene.cycles.device = "CPU"
+    mat = new_material(bpy)
+    auto = add_group_node(mat, nodes.ensure_group("lambert"))
+    native = add_group_node(mat, nodes.ensure_group("lambert"))
+    api.set_params(native, backend="native")
+    for node in (auto, native):
+        api.set_mode(node, "exact")
+    none_45 = "Blender 4.5 native nodes: exact mode casts no shadows"
+    screen = ("EEVEE: exact mode's shadow ray is traced in screen space (only what the view "
+              "sees casts a shadow)")
+    raycast = bpy.app.version >= (5, 0)
+    assert none_45 not in sidebar_labels(bpy, node_context(scene, auto))
+    assert (none_45 in sidebar_labels(bpy, node_context(scene, native))) != raycast
+    scene.render.engine = "BLENDER_EEVEE" if raycast else "BLENDER_EEVEE_NEXT"
+    labels = sidebar_labels(bpy, node_context(scene, auto))
+    assert (screen in labels) == raycast and (none_45 in labels) != raycast, labels
+    api.set_mode(auto, "path_traced")  # no shadow ray
+    labels = sidebar_labels(bpy, node_context(scene, auto))
+    assert screen not in labels and none_45 not in labels, labels
+
+
 def test_add_menu_lists_every_model_and_preset(ui, bpy):
     appended = [f for f in bpy.types.NODE_MT_shader_node_add_all._dyn_ui_initialize()
                 if getattr(f, "__module__", "") == ui.__name__]
