@@ -314,7 +314,9 @@ def _variants(model_id):
 FIDELITY_LEGEND = ("exact: a Cycles closure is the model; near: Cycles' closure with its "
                    "rational Lambda (< 1 %); fitted: a fitted mixture of closures whose error "
                    "the fitter bounds (below); approx: the best mixture or lobe found, "
-                   "measured, no bound.")
+                   "measured, not within that bound (the renders hold it to the fitter's "
+                   "figure at its width where there is one, which api.bsdf_accuracy "
+                   "states).")
 
 
 # Why the Fresnel variants' wide widths are approx: the model page's and the

@@ -200,9 +200,11 @@ def _check_path_traced(r):
         # an approximation: measured and reported, no claim
         assert math.isfinite(r["max_abs_over_peak"])
         assert r["passed"] is None
-    elif r["status"] == "fitted":
-        # the fitter's bound on the largest difference over the peak, in its
-        # domain (views and lights up to 70 deg); the rest is measured
+    elif r["status"] in ("fitted", "approx"):
+        # the fitter's bound on the largest difference over the peak (an
+        # approximation: the figure it measured at the width, which the API
+        # states), in its domain (views and lights up to 70 deg); the rest
+        # is measured
         assert r["max_abs_over_peak_fit_domain"] <= tol and r["passed"]
     else:
         # exact closures: float32 rounding (1e-3 leaves room); near: Walter's rational Lambda
@@ -297,7 +299,8 @@ def test_path_traced_mode_at_random_parameters(bpy, verify, api, backend):
     """The BSDF output at the seeded random parameters of the exact-mode
     check: each case holds what its status claims (an exact closure within
     float32, a fitted mixture within the fitter's bound, an approximation
-    finite and lit), at widths, indices and colours no report case uses.
+    within the figure the fitter measured at its width where there is one,
+    finite and lit everywhere), at widths, indices and colours no report case uses.
     A second draw of the microfacet model adds its fitted cases (the first
     has one). The draws must reach exact, fitted and approximate cases."""
     status_of = {"osl": "osl", "svm": "native"}[backend]

@@ -21,8 +21,10 @@ formula description (``Formula.fidelity``):
 - ``"fitted"``: a mixture of closures fitted offline (fitting/mixtures.py)
   whose largest error the fitter measured within the bound; checked here
   as the largest difference over the peak.
-- ``"approx"``: everything else: the best mixture or lobe; the report gives
-  the measured error and claims no tolerance.
+- ``"approx"``: everything else: the best mixture or lobe; checked against
+  the fitter's figure at the case's width and Fresnel where it measured one
+  (:meth:`Case.path_traced_error`, what ``api.bsdf_accuracy`` states), else
+  the report gives the measured error and claims no tolerance.
 
 Importing this needs no bpy.
 """
@@ -88,6 +90,14 @@ class Case:
         # the widths decide too (Cycles clamps alpha to 1)
         return formulas.path_traced_status(model.id, self.enums, self.params, blender_version,
                                            backend)
+
+    def path_traced_error(self, blender_version=(5, 2), backend="osl") -> tuple:
+        """``(error, where)``: the fitter's largest difference over the peak
+        for this case's BSDF output (views and lights to 70 deg), or
+        ``(None, why)`` (:func:`addon.core.formulas.models.path_traced_error`)."""
+        model, _fixed, _defaults = catalogue.resolve(self.model)
+        return formulas.path_traced_error(model.id, self.enums, self.params, blender_version,
+                                          backend)
 
     def path_traced_tolerance(self, blender_version=(5, 2), backend="osl"):
         return PATH_TRACED_TOLERANCE[self.path_traced_status(blender_version, backend)]
