@@ -161,6 +161,9 @@ bench: $(STAMP)
 # the bound, none lowered by more than 0.001).  And Phong's
 # mixture of Toon lobes for Cycles' native nodes (fitting/toon.py; about 45 minutes, on two cores;
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
+# Then how far Ward's weighted Beckmann lobe is from Ward's model, cell by
+# cell of its widths (fitting/ward.py; about 6 minutes on two cores; with
+# ONLY, when it names ward), written to addon/core/fits/ward.py.
 # Last, where each microfacet mixture holds the fitted bound, interval by
 # interval of its width nodes, without and with the model's Fresnel
 # (fitting/bounds.py; about 21 minutes on two cores), written to
@@ -176,6 +179,7 @@ EDGE ?= microfacet/blinn/smith/beta microfacet/blinn/smith_correlated/beta \
         microfacet/gaussian/smith/beta
 EDGE_NOW = $(if $(ONLY),$(filter $(ONLY),$(EDGE)),$(EDGE))
 TOON_NOW = $(if $(ONLY),$(filter phong,$(ONLY)),phong)
+WARD_NOW = $(if $(ONLY),$(filter ward,$(ONLY)),ward)
 fit: $(STAMP)
 	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(HALVE_NOW)),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE_NOW),)
@@ -184,6 +188,7 @@ fit: $(STAMP)
 	$(if $(strip $(EDGE_NOW)),$(PY) -m tools.fit --edge --jobs $(JOBS) --only $(EDGE_NOW),)
 	$(PY) -m tools.fit --derive --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(TOON_NOW)),$(PY) -m tools.fit --toon --jobs $(JOBS),)
+	$(if $(strip $(WARD_NOW)),$(PY) -m tools.fit --ward --jobs $(JOBS),)
 	$(PY) -m tools.fit --bounds --jobs $(JOBS)
 
 clean:

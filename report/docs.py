@@ -440,6 +440,7 @@ def _remains_numbers() -> dict:
             "phong_toon": f"{mixtures.toon_measured()['max_abs_over_peak_70']:.3f}",
             "phong_toon_albedo": f"{mixtures.toon_measured()['albedo_difference_70']:.3f}",
             "phong_band": _phong_band(),
+            **_ward_numbers(),
             **_phong_nodes(),
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.3f}",
             "blinn_phong_joint": ("; then the weight series of the nodes around its worst "
@@ -481,6 +482,22 @@ def _phong_nodes() -> dict:
     return {"phong_nodes": f"{column(1)}, where the Glossy mixture errs {column(2, False)}",
             "phong_floor": column(3, False), "phong_floor_albedo": column(4, False),
             "phong_toon_wide": f"{rows[0][1]:.3f}", "phong_floor_wide": f"{rows[0][4]:.3f}"}
+
+
+def _ward_numbers() -> dict:
+    """Ward's measured figures (addon/core/fits/ward.py) in words: the cells
+    whose wider width is at a few nodes, and where the status is fitted."""
+    from addon.core.fits import ward as data
+    nodes = [math.exp(x) for x in data.NODES]
+    m = len(nodes) - 1
+    picks = [j for j in range(m) if j in (0, m - 1) or any(
+        math.isclose(nodes[j + 1], a, rel_tol=1e-9) for a in (0.01, 0.1, 0.5))]
+    cells = ", ".join(f"{data.FIGURES[j][j]:.3g} with both widths {nodes[j]:.3g}-"
+                      f"{nodes[j + 1]:.3g}" for j in picks)
+    fitted = [j for j in range(m) if all(data.FIGURES[a][b] <= formulas.FIT_BOUND
+                                         for a in range(j + 1) for b in range(j + 1))]
+    return {"ward_cells": cells,
+            "ward_fitted": f"{nodes[max(fitted) + 1]:.3g}" if fitted else "no width"}
 
 
 def _phong_band() -> str:
@@ -566,7 +583,13 @@ REMAINS = {
     "ward": (
         "Ward's 1/sqrt(cos theta_i cos theta_o) normalisation: the view part is the "
         "closure's weight, the light part sqrt(cos theta_i / cos theta_o) relative to the "
-        "Beckmann closure's shadowing no weight can carry.  The hybrid mode is exact."),
+        "Beckmann closure's shadowing no weight can carry.  How far that leaves the output, "
+        "measured cell by cell of (alpha_x, alpha_y) with views and lights up to 70 deg "
+        "(fitting/ward.py, data in addon/core/fits/ward.py; the figure api.bsdf_accuracy "
+        "states and the renders are held to): {ward_cells}.  It grows with the wider "
+        "width, since a narrow lobe's lights stay near the mirror direction, where the "
+        "light part is about 1: within 0.025 (fitted) where both widths are under "
+        "{ward_fitted}.  The hybrid mode is exact."),
     "kajiya_kay": (
         "Kajiya-Kay's lobe is a cone around the fibre with the exponent's profile; Cycles' "
         "hair reflection lobe has its own (Gaussian in the longitudinal angle) and no "

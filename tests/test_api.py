@@ -591,9 +591,17 @@ def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
     got = api.bsdf_accuracy(glass)
     assert got["status"] == "approx" and got["max_abs_over_peak"] is None
     assert "indices" in got["note"]
-    ward = api.bsdf_accuracy(api.add_model(mat, "ward"))
-    assert ward["status"] == "approx" and ward["max_abs_over_peak"] is None
-    assert "light direction" in ward["note"]
+    hair = api.bsdf_accuracy(api.add_model(mat, "kajiya_kay"))
+    assert hair["status"] == "approx" and hair["max_abs_over_peak"] is None
+    assert "light direction" in hair["note"]
+    # Ward's weighted lobe: measured per cell of its widths (fitting/ward.py)
+    ward = api.add_model(mat, "ward", alpha_x=0.3, alpha_y=0.08)
+    got = api.bsdf_accuracy(ward)
+    assert got["status"] == "approx" and got["note"] == formulas.AT_THIS_WIDTH
+    assert formulas.FIT_BOUND < got["max_abs_over_peak"] < 1.0
+    api.set_params(ward, alpha_x=0.002, alpha_y=0.004)  # narrow: near the mirror direction
+    got = api.bsdf_accuracy(ward)
+    assert got["status"] == "fitted" and got["max_abs_over_peak"] <= formulas.FIT_BOUND
 
     # Phong: OSL's phong_ramp is the model; the native nodes' Toon mixture is not
     phong = api.add_model(mat, "phong")

@@ -19,6 +19,9 @@
 - ``--toon``: Phong's mixture of Toon glossy lobes for Cycles' native
   nodes (:mod:`fitting.toon`; about 45 minutes, on two cores, kept in
   build/fits);
+- ``--ward``: how far Ward's BSDF output (a weighted Beckmann lobe, no
+  fit) is from the model, cell by cell of its widths (:mod:`fitting.ward`;
+  about 6 minutes on two cores; ``make fit`` runs it);
 - ``--bounds``: where each microfacet mixture holds the fitted bound,
   interval by interval of its width nodes, without and with the model's
   Fresnel (:mod:`fitting.bounds`; about 21 minutes on two cores; ``make
@@ -230,6 +233,21 @@ def bounds(jobs=2):
     print(f"wrote {path.relative_to(ROOT)}")
 
 
+def ward(jobs=2):
+    """``addon/core/fits/ward.py`` (:mod:`fitting.ward`): how far Ward's BSDF
+    output is from the model, cell by cell of its widths."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from fitting import FITS
+    from fitting import ward as W
+    points = W.points()
+    with ProcessPoolExecutor(jobs) as pool:
+        measured = dict(zip(points, pool.map(W.measure_point, points, chunksize=8)))
+    path = FITS / "ward.py"
+    path.write_text(W.module_text(measured))
+    print(f"wrote {path.relative_to(ROOT)}")
+
+
 def _check_committed(todo, keys):
     """Exit unless the committed module comes from this fitter (so its other
     variants can be kept) and ``todo`` are variants."""
@@ -329,6 +347,10 @@ def main(argv=None) -> int:
                         help="measure where each microfacet mixture holds the fitted bound, per "
                              "width interval, without and with Fresnel (fitting/bounds.py) and "
                              "write addon/core/fits/bounds.py; make fit runs it last")
+    parser.add_argument("--ward", action="store_true",
+                        help="measure how far Ward's BSDF output is from the model, per cell "
+                             "of its widths (fitting/ward.py), and write "
+                             "addon/core/fits/ward.py; make fit runs it")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
@@ -340,6 +362,9 @@ def main(argv=None) -> int:
         return 0
     if args.bounds:
         bounds(args.jobs)
+        return 0
+    if args.ward:
+        ward(args.jobs)
         return 0
     if args.collect:
         collect(args.jobs, args.only)

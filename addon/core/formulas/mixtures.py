@@ -126,6 +126,24 @@ def interval_bound(key: str, value: float, fresnel_class: str):
     return max(found)
 
 
+def ward_figure(alpha_x=None, alpha_y=None):
+    """The largest |BSDF output - model| over the peak that
+    ``fitting/ward.py`` measured for Ward's model (views and lights up to
+    70 deg) in the cell of widths around (``alpha_x``, ``alpha_y``), the
+    larger of the cells at a node, clamped to the sockets' range; with no
+    widths, the largest of every cell."""
+    from ..fits import ward as _ward
+    if alpha_x is None or alpha_y is None:
+        return max(max(row) for row in _ward.FIGURES)
+    nodes = _ward.NODES
+
+    def around(alpha):
+        x = min(max(math.log(max(float(alpha), 1e-30)), nodes[0]), nodes[-1])
+        return [j for j in range(len(nodes) - 1)
+                if nodes[j] - 1e-12 <= x <= nodes[j + 1] + 1e-12]
+    return max(_ward.FIGURES[a][b] for a in around(alpha_x) for b in around(alpha_y))
+
+
 def worst_interval(key: str, fresnel_class: str):
     """The largest :func:`interval_bound` of the variant (its intervals
     within the closures' range), or None where not measured."""

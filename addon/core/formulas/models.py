@@ -657,6 +657,23 @@ class Ward(Formula):
         value = v.p("ks") * (lobe * ci)  # the lobe is 0 where not ok
         return {"value": value, "Lobe": lobe, "cos_theta_i": ci, "cos_theta_o": co}
 
+    def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
+        """"fitted" where ``fitting/ward.py`` measured the weighted lobe
+        within FIT_BOUND in the cell of widths around ``params`` (narrow
+        lobes, whose lights stay near the mirror direction, where the light
+        part Ward's normalisation leaves is about 1), else "approx"."""
+        figure, _where = self.measured_error(enums, caps, params)
+        return "fitted" if figure <= FIT_BOUND else "approx"
+
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        from . import mixtures
+        if params is None:
+            return mixtures.ward_figure(), AT_WORST_WIDTH
+        default = catalogue.MODELS["ward"]
+        return mixtures.ward_figure(params.get("alpha_x", default.param("alpha_x").default),
+                                    params.get("alpha_y", default.param("alpha_y").default)), \
+            AT_THIS_WIDTH
+
     def closure(self, v, s):
         # APPROXIMATION: ward() is declared but renders black in Cycles.  The
         # anisotropic Beckmann closure with the same (ax, ay) and a weight of
