@@ -42,6 +42,8 @@ says which one a scene renders; :func:`enable_osl` switches a scene to OSL.
 
 from __future__ import annotations
 
+import math
+
 import bpy
 import numpy as np
 
@@ -466,7 +468,7 @@ def bsdf_accuracy(node, scene=None) -> dict:
     if lighting.is_eevee(scene):
         return {"backend": backend, "status": "approx", "max_abs_over_peak": None,
                 "note": "EEVEE's own closures: not measured by the fitter"}
-    params = _path_traced_params(node)
+    params = _path_traced_params(node, catalogue.MODELS[model_id])
     enums = {k: v for k, v in variant.items()
              if k not in (groups.BACKEND_PARAM.name, groups.LIGHTS_PARAM.name)}
     status = formulas.path_traced_status(model_id, enums, params, bpy.app.version, backend)
@@ -474,10 +476,11 @@ def bsdf_accuracy(node, scene=None) -> dict:
     return {"backend": backend, "status": status, "max_abs_over_peak": error, "note": note}
 
 
-def _path_traced_params(node):
+def _path_traced_params(node, model):
     """The widths and Fresnel indices of ``node`` that the BSDF output's
     status depends on (:func:`~.core.formulas.models.path_traced_status`),
-    or None where one of them is linked (its value is the link's)."""
+    as the shaders take them (clamped to the parameter's limits, NaN to the
+    lower), or None where one of them is linked (its value is the link's)."""
     params = {}
     for name in (*(n for names in groups.WIDTH_SOCKETS.values() for n in names), "ior", "k"):
         try:
@@ -486,9 +489,16 @@ def _path_traced_params(node):
             continue
         if socket.is_linked:
             return None
+        param = model.param(name)
+
+        def clamped(x):
+            x = float(x)
+            lo = -math.inf if param.minimum is None else param.minimum
+            hi = math.inf if param.maximum is None else param.maximum
+            return lo if math.isnan(x) else min(max(x, lo), hi)
         value = socket.default_value
-        params[name] = float(value) if isinstance(value, (int, float)) else \
-            tuple(float(v) for v in value[:3])
+        params[name] = clamped(value) if isinstance(value, (int, float)) else \
+            tuple(clamped(v) for v in value[:3])
     return params
 
 

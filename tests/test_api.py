@@ -602,6 +602,20 @@ def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
     api.set_params(ward, alpha_x=0.002, alpha_y=0.004)  # narrow: near the mirror direction
     got = api.bsdf_accuracy(ward)
     assert got["status"] == "fitted" and got["max_abs_over_peak"] <= formulas.FIT_BOUND
+    # a socket set out of range from Python: read as the shaders clamp it
+    # (NaN to the lower limit), as the figure of the clamped width
+    for bad, like in ((math.nan, 0.001), (math.inf, 1.0), (-5.0, 0.001), (50.0, 1.0)):
+        nodes.input_socket(ward, "alpha_x").default_value = bad
+        nodes.input_socket(ward, "alpha_y").default_value = 0.3
+        got = api.bsdf_accuracy(ward)["max_abs_over_peak"]
+        api.set_params(ward, alpha_x=like, alpha_y=0.3)
+        assert got == api.bsdf_accuracy(ward)["max_abs_over_peak"], (bad, got)
+    beta = nodes.input_socket(node, "beta")
+    mat.node_tree.links.remove(beta.links[0])
+    for bad in (math.nan, math.inf, -1.0):
+        beta.default_value = bad
+        got = api.bsdf_accuracy(node)
+        assert got["note"] == formulas.AT_THIS_WIDTH and math.isfinite(got["max_abs_over_peak"])
 
     # Phong: OSL's phong_ramp is the model; the native nodes' Toon mixture is not
     phong = api.add_model(mat, "phong")

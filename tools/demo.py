@@ -249,8 +249,9 @@ def run(args):
             f"path-traced: exact closures {cases_mod.PATH_TRACED_TOLERANCE['exact']:g}, "
             f"near {cases_mod.PATH_TRACED_TOLERANCE['near']:g}, fitted mixtures "
             f"{cases_mod.PATH_TRACED_TOLERANCE['fitted']:g} of the model's peak with view and "
-            f"light within 70 deg (the fitter's domain), approximations "
-            f"measured only. Run time {elapsed:.0f} s.")
+            f"light within 70 deg (the fitter's domain), approximations the fitter's "
+            f"figure at their width there (what api.bsdf_accuracy states) where it measured "
+            f"one, else measured only. Run time {elapsed:.0f} s.")
     pages.write_json(out / "report.json", checks + aniso + lamp_checks)
     from report import docs
     docs.MEASURED.write_text(json.dumps(docs.measured_rows(checks, bpy.app.version_string),
