@@ -568,3 +568,50 @@ def test_the_term_outputs_are_the_lecture_s_factors(api, bpy, model, params, bac
         api.unbind_light(node)
         bpy.data.scenes.remove(g.scene)
         bpy.data.materials.remove(mat)
+
+
+def test_every_variant_s_bsdf_figure_agrees_with_its_status():
+    """``path_traced_error`` (what ``api.bsdf_accuracy`` states) beside
+    ``path_traced_status`` for every variant of every model, widths unknown,
+    at seeded random widths and indices and at the sockets' limits, OSL and
+    native nodes, 5.2 and 4.5: a closure that is the model has no figure; a
+    fitted output has one within FIT_BOUND; an approximation's, where there
+    is one, is over it; every figure finite, every status with a note."""
+    import itertools
+    import random
+
+    from addon.core import catalogue, variants
+    from addon.core.formulas import models as formulas
+    rng = random.Random(20261207)
+    seen = set()
+    for model_id, model in catalogue.MODELS.items():
+        structural = [p for p in variants.variant_params(model_id)
+                      if p.name not in ("backend", "lights")]
+        for combo in itertools.product(*[p.choices for p in structural]):
+            enums = dict(zip([p.name for p in structural], combo))
+            for trial in range(6):
+                params = None if trial == 0 else {}
+                for p in model.params if params is not None else ():
+                    if p.kind == "enum":
+                        continue
+                    lo = 0.0 if p.minimum is None else p.minimum
+                    hi = 10.0 if p.maximum is None else p.maximum
+                    x = rng.uniform(lo, hi) if trial < 4 else (lo, hi)[trial - 4]
+                    params[p.name] = (x, x, x) if p.kind == "color" else x
+                for backend, version in itertools.product(("osl", "native"), ((5, 2), (4, 5))):
+                    status = formulas.path_traced_status(model_id, enums, params, version,
+                                                         backend)
+                    error, note = formulas.path_traced_error(model_id, enums, params, version,
+                                                             backend)
+                    case = (model_id, enums, params, backend, version, status, error)
+                    assert isinstance(note, str) and note, case
+                    assert error is None or (math.isfinite(error) and error >= 0.0), case
+                    if status in ("exact", "near"):
+                        assert error is None, case
+                    elif status == "fitted":
+                        assert error is not None and error <= formulas.FIT_BOUND, case
+                    else:
+                        assert error is None or error > formulas.FIT_BOUND, case
+                    seen.add((status, error is None))
+    assert {("exact", True), ("near", True), ("fitted", False), ("approx", False),
+            ("approx", True)} <= seen
