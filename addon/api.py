@@ -60,8 +60,9 @@ SUPPORTED_LIGHTS = lighting.SUPPORTED_LIGHTS
 __all__ = ["add_model", "set_params", "set_mode", "get_mode", "bind_light", "unbind_light",
            "bound_light", "bound_lights", "light_drivers", "sync_light_linking",
            "deferred_light_linking", "enable_osl",
-           "osl_status", "rendering_backend", "bsdf_accuracy", "ensure_groups", "upgrade_groups",
-           "apply_metal", "use_strand_tangent", "MODES", "METALS", "BACKENDS"]
+           "osl_status", "rendering_backend", "bsdf_accuracy", "direct_accuracy",
+           "ensure_groups", "upgrade_groups", "apply_metal", "use_strand_tangent", "MODES",
+           "METALS", "BACKENDS"]
 
 
 # ---------------------------------------------------------------------------
@@ -474,6 +475,74 @@ def bsdf_accuracy(node, scene=None) -> dict:
     status = formulas.path_traced_status(model_id, enums, params, bpy.app.version, backend)
     error, note = formulas.path_traced_error(model_id, enums, params, bpy.app.version, backend)
     return {"backend": backend, "status": status, "max_abs_over_peak": error, "note": note}
+
+
+# exact mode's bounds, as the checks hold them (verification/harness/checks.py,
+# tests/test_api.py compares): Cycles, OSL or native nodes, float32 against the
+# float64 reference (measured <= 1.5e-5); EEVEE, its half-float output
+EXACT_MAX_REL_ERROR = 1e-4
+EEVEE_EXACT_MAX_ABS_OVER_PEAK = 3e-3
+
+
+def direct_accuracy(node, scene=None) -> dict:
+    """How the Direct output (exact mode) of RM group ``node`` matches its
+    model where ``scene`` (default: the context scene) renders it, as set
+    now.  A dict:
+
+    - ``"backend"``: :func:`rendering_backend` of the scene and the node;
+    - ``"max_rel_error"``: the relative error the checks hold it to in
+      Cycles (1e-4: float32), or None; ``"max_abs_over_peak"``: in EEVEE,
+      the difference over the model's peak (3e-3: its half-float output),
+      or None;
+    - ``"shadows"``: "ray" (a ray through the scene: OSL's trace(), the
+      Raycast node in Cycles), "screen_space" (EEVEE's Raycast node: only
+      what the view sees casts a shadow), "none" (Blender 4.5's native
+      nodes, which have no Raycast node; OSL on OptiX, where trace()
+      misses), or None where nothing renders the node;
+    - ``"notes"``: what else of the bound lamps exact mode does not follow,
+      in words (the sidebar's): a lamp's size, a spot's uneven scale, light
+      and shadow linking, Kajiya-Kay's ray visibility, EEVEE's light
+      factors."""
+    _rm_node_info(node)
+    scene = _scene(scene, "direct_accuracy")
+    backend, reason = rendering_backend(scene, node)
+    out = {"backend": backend, "max_rel_error": None, "max_abs_over_peak": None,
+           "shadows": None, "notes": []}
+    if backend == "none":
+        out["notes"].append(reason)
+        return out
+    from .backends.native import build as native_build
+    eevee = lighting.is_eevee(scene)
+    if eevee:
+        out["max_abs_over_peak"] = EEVEE_EXACT_MAX_ABS_OVER_PEAK
+    else:
+        out["max_rel_error"] = EXACT_MAX_REL_ERROR
+    if backend == "osl":
+        out["shadows"] = "none" if osl_status(scene)[1] else "ray"  # OptiX: no trace()
+    elif not native_build.has_raycast():
+        out["shadows"] = "none"
+    else:
+        out["shadows"] = "screen_space" if eevee else "ray"
+    bound = bound_lights(node)
+
+    def names(lamps):
+        return ", ".join(o if isinstance(o, str) else o.name for o in lamps)
+    for lamps, text in (
+            (lighting.sized_lamps(bound), "taken as a direction or point, size ignored"),
+            (lighting.unevenly_scaled_spots(bound), "spot cone taken unscaled (Cycles scales "
+                                                    "it with the lamp's uneven scale)"),
+            (lighting.shadow_linked_lamps(node), "shadow linking not followed: the shadow "
+                                                 "ray sees every object"),
+            (lighting.light_linked_lamps(node), "light linking not followed: every object "
+                                                "with the material is lit"),
+            (lighting.unfollowed_ray_lamps(node), "one ray visibility off: Kajiya-Kay's "
+                                                  "diffuse and specular terms share one "
+                                                  "light"),
+            (lighting.eevee_factor_lamps(node, scene), "EEVEE's Diffuse and Specular light "
+                                                       "factors not followed")):
+        if lamps:
+            out["notes"].append(f"{names(lamps)}: {text}")
+    return out
 
 
 def _path_traced_params(node, model):

@@ -646,6 +646,49 @@ def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
         api.bsdf_accuracy(phong, "Scene")
 
 
+def test_direct_accuracy_says_where_exact_mode_is_not_the_model(api, bpy):
+    """``api.direct_accuracy``: the bound the checks hold exact mode to on
+    the backend that renders the node (the checks' own tolerances), the
+    shadow ray it has there (a ray in Cycles; screen space in EEVEE;
+    none in Blender 4.5's native nodes), and the bound lamps' settings it
+    does not follow, by name."""
+    from verification.harness.checks import tolerance
+    assert api.EXACT_MAX_REL_ERROR == tolerance("exact_mode")
+    assert api.EEVEE_EXACT_MAX_ABS_OVER_PEAK == tolerance("eevee_exact")
+    raycast = bpy.app.version >= (5, 0)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.shading_system = True
+    scene.cycles.device = "CPU"
+    mat = new_material(bpy)
+    node = api.add_model(mat, "kajiya_kay", mode="exact")
+    forced = api.add_model(mat, "lambert", mode="exact", backend="osl")
+    sun = bpy.data.objects.new("Key", bpy.data.lights.new("Key", "SUN"))
+    scene.collection.objects.link(sun)
+    sun.data.angle = 0.0
+    api.bind_light(node, sun)
+    got = api.direct_accuracy(node)
+    assert got == {"backend": "osl", "max_rel_error": 1e-4, "max_abs_over_peak": None,
+                   "shadows": "ray", "notes": []}, got
+    sun.data.angle = 0.1  # a sun with a size: taken as one direction
+    sun.visible_diffuse = False  # Kajiya-Kay's two terms share one light
+    notes = api.direct_accuracy(node)["notes"]
+    assert len(notes) == 2 and all(n.startswith("Key: ") for n in notes), notes
+    assert "size ignored" in notes[0] and "ray visibility" in notes[1]
+    scene.cycles.shading_system = False
+    got = api.direct_accuracy(node)
+    assert (got["backend"], got["shadows"]) == ("native", "ray" if raycast else "none")
+    got = api.direct_accuracy(forced)
+    assert (got["backend"], got["shadows"], got["max_rel_error"]) == ("none", None, None)
+    assert "Open Shading Language is off" in got["notes"][0]
+    scene.render.engine = "BLENDER_EEVEE" if raycast else "BLENDER_EEVEE_NEXT"
+    got = api.direct_accuracy(node)
+    assert (got["backend"], got["max_rel_error"], got["max_abs_over_peak"], got["shadows"]) \
+        == ("native", None, 3e-3, "screen_space" if raycast else "none"), got
+    with pytest.raises(ValueError, match="not a Reflection Models node"):
+        api.direct_accuracy(sun)
+
+
 def test_add_model_compiles_osl_in_a_plain_bpy_process(tmp_path):
     """A script that imports the ``bpy`` module (the pip wheel) and nothing
     else: there Cycles' ``oslquery`` does not import (Blender's bundled
