@@ -40,9 +40,9 @@ import numpy as np
 from . import closures as CL
 
 LOG_MIN, LOG_MAX = math.log(0.001), math.log(1.0)  # the sockets' range
-# log alpha: every half decade's sixth from 0.001 to 0.32, then every tenth
-# of alpha to 1, where the difference grows fastest (0.23 of the peak at
-# alpha 0.3, 0.33 at 0.5, 0.71 at 0.8, 1.43 at 1)
+# log alpha: every quarter decade from 0.001 to 0.32, then every tenth of
+# alpha to 1, where the difference grows fastest (0.23 of the peak at alpha
+# 0.3, 0.33 at 0.5, 0.71 at 0.8, 1.43 at 1)
 NODES = tuple([LOG_MIN + (LOG_MAX - LOG_MIN) * j / 12 for j in range(11)]
               + [math.log(a / 10.0) for a in range(4, 11)])
 DOMAIN_DEG = 70.0
