@@ -568,6 +568,10 @@ def test_an_older_groups_engine_switch_is_mended_at_load(api, bpy):
         alpha = maximum.inputs[0].links[0].from_socket
         sub.nodes.remove(maximum)
         sub.links.new(alpha, mix.inputs[0])
+        # the old shape in a group of version 26: left as it is (the version
+        # decides, not the shape)
+        assert groups.mend_engine_switches() == 0
+        assert mix.inputs[0].links[0].from_socket == alpha
         tree["rm_version"] = 25
         count = len(sub.nodes)
         ui.on_load_post()
