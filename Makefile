@@ -163,7 +163,10 @@ bench: $(STAMP)
 # with ONLY, when it names phong), written to addon/core/fits/toon.py.
 # Then how far Ward's weighted Beckmann lobe is from Ward's model, cell by
 # cell of its widths (fitting/ward.py; about 6 minutes on two cores; with
-# ONLY, when it names ward), written to addon/core/fits/ward.py.
+# ONLY, when it names ward), written to addon/core/fits/ward.py; and the
+# same for Kajiya-Kay's diffuse and hair reflection closures, cell by cell
+# of its exponent and colour ratio (fitting/kajiya_kay.py; about a minute;
+# with ONLY, when it names kajiya_kay), to addon/core/fits/kajiya_kay.py.
 # Last, where each microfacet mixture holds the fitted bound, interval by
 # interval of its width nodes, without and with the model's Fresnel
 # (fitting/bounds.py; about 21 minutes on two cores), written to
@@ -180,6 +183,7 @@ EDGE ?= microfacet/blinn/smith/beta microfacet/blinn/smith_correlated/beta \
 EDGE_NOW = $(if $(ONLY),$(filter $(ONLY),$(EDGE)),$(EDGE))
 TOON_NOW = $(if $(ONLY),$(filter phong,$(ONLY)),phong)
 WARD_NOW = $(if $(ONLY),$(filter ward,$(ONLY)),ward)
+KK_NOW = $(if $(ONLY),$(filter kajiya_kay,$(ONLY)),kajiya_kay)
 fit: $(STAMP)
 	$(PY) -m tools.fit --mixtures --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(HALVE_NOW)),$(PY) -m tools.fit --finish --halve --jobs $(JOBS) --only $(HALVE_NOW),)
@@ -189,6 +193,7 @@ fit: $(STAMP)
 	$(PY) -m tools.fit --derive --jobs $(JOBS) $(if $(ONLY),--only $(ONLY),)
 	$(if $(strip $(TOON_NOW)),$(PY) -m tools.fit --toon --jobs $(JOBS),)
 	$(if $(strip $(WARD_NOW)),$(PY) -m tools.fit --ward --jobs $(JOBS),)
+	$(if $(strip $(KK_NOW)),$(PY) -m tools.fit --kajiya-kay --jobs $(JOBS),)
 	$(PY) -m tools.fit --bounds --jobs $(JOBS)
 
 clean:

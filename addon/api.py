@@ -551,7 +551,7 @@ def _path_traced_params(node, model):
     as the shaders take them (clamped to the parameter's limits, NaN to the
     lower), or None where one of them is linked (its value is the link's)."""
     params = {}
-    for name in (*(n for names in groups.WIDTH_SOCKETS.values() for n in names), "ior", "k"):
+    for name in formulas.FORMULAS[model.id].status_params:
         try:
             socket = groups.input_socket(node, name)
         except KeyError:

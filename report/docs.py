@@ -448,6 +448,7 @@ def _remains_numbers() -> dict:
             "phong_toon_albedo": f"{mixtures.toon_measured()['albedo_difference_70']:.3f}",
             "phong_band": _phong_band(),
             **_ward_numbers(),
+            "kk_cells": _kajiya_kay_cells(),
             **_phong_nodes(),
             "blinn_phong_albedo": f"{mixtures.measured('blinn_phong')['albedo_difference_70']:.3f}",
             "blinn_phong_joint": ("; then the weight series of the nodes around its worst "
@@ -505,6 +506,17 @@ def _ward_numbers() -> dict:
                                          for a in range(j + 1) for b in range(j + 1))]
     return {"ward_cells": cells,
             "ward_fitted": f"{nodes[max(fitted) + 1]:.3g}" if fitted else "no width"}
+
+
+def _kajiya_kay_cells() -> str:
+    """Kajiya-Kay's measured figures (addon/core/fits/kajiya_kay.py) in
+    words: ratios 0-0.1 (mostly ks) and 0.9-1 (mostly kd) at a few exponent
+    cells."""
+    from addon.core.fits import kajiya_kay as data
+    s = [math.expm1(x) for x in data.NODES]
+    rows = [0, 6, 11, len(s) - 2]
+    return "; ".join(f"s {s[j]:.3g}-{s[j + 1]:.3g}: {data.FIGURES[j][0]:.3g} with ks over 90 % "
+                     f"of kd + ks, {data.FIGURES[j][-1]:.3g} with kd over 90 %" for j in rows)
 
 
 def _phong_band() -> str:
@@ -601,7 +613,12 @@ REMAINS = {
         "Kajiya-Kay's lobe is a cone around the fibre with the exponent's profile; Cycles' "
         "hair reflection lobe has its own (Gaussian in the longitudinal angle) and no "
         "mixture of the available closures follows the light-dependent sin theta_L of the "
-        "diffuse part.  The hybrid mode is exact."),
+        "diffuse part.  Measured cell by cell of the exponent and the colours' ratio kd / "
+        "(kd + ks), views and lights up to 70 deg (fitting/kajiya_kay.py, data in "
+        "addon/core/fits/kajiya_kay.py; the figure api.bsdf_accuracy states and the renders "
+        "are held to): {kk_cells}.  The hair lobe is normalised and peaks at about 1/(8 pi "
+        "r^2 cos theta), r = sqrt(2/(s + 2)), where the model's cone lobe peaks at 1: the "
+        "narrower the lobe, the further the output overshoots.  The hybrid mode is exact."),
     "phong": (
         "OSL's phong_ramp closure is Phong's lobe, so the OSL output is exact.  The native "
         "nodes have no such closure.  In Cycles (GPU devices, OSL off) they render a mixture "

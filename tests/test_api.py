@@ -591,9 +591,15 @@ def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
     got = api.bsdf_accuracy(glass)
     assert got["status"] == "approx" and got["max_abs_over_peak"] is None
     assert "indices" in got["note"]
-    hair = api.bsdf_accuracy(api.add_model(mat, "kajiya_kay"))
-    assert hair["status"] == "approx" and hair["max_abs_over_peak"] is None
-    assert "light direction" in hair["note"]
+    brushed = api.bsdf_accuracy(api.add_model(mat, "microfacet", alpha_x=0.1, alpha_y=0.3))
+    assert brushed["status"] == "approx" and brushed["max_abs_over_peak"] is None
+    assert "one width" in brushed["note"]  # the fits are isotropic
+    # Kajiya-Kay's two closures: measured per exponent and colour ratio
+    hair = api.add_model(mat, "kajiya_kay", exponent=40.0, kd=0.2, ks=0.5)
+    got = api.bsdf_accuracy(hair)
+    assert got["status"] == "approx" and got["note"] == formulas.AT_THIS_WIDTH
+    api.set_params(hair, exponent=1000.0)  # the hair lobe's peak grows as 1 / roughness^2
+    assert api.bsdf_accuracy(hair)["max_abs_over_peak"] > 10 * got["max_abs_over_peak"]
     # Ward's weighted lobe: measured per cell of its widths (fitting/ward.py)
     ward = api.add_model(mat, "ward", alpha_x=0.3, alpha_y=0.08)
     got = api.bsdf_accuracy(ward)

@@ -22,6 +22,9 @@
 - ``--ward``: how far Ward's BSDF output (a weighted Beckmann lobe, no
   fit) is from the model, cell by cell of its widths (:mod:`fitting.ward`;
   about 6 minutes on two cores; ``make fit`` runs it);
+- ``--kajiya-kay``: the same for Kajiya-Kay's (a diffuse and a hair
+  reflection closure, no fit), cell by cell of its exponent and its
+  colours' ratio (:mod:`fitting.kajiya_kay`; about a minute);
 - ``--bounds``: where each microfacet mixture holds the fitted bound,
   interval by interval of its width nodes, without and with the model's
   Fresnel (:mod:`fitting.bounds`; about 21 minutes on two cores; ``make
@@ -248,6 +251,21 @@ def ward(jobs=2):
     print(f"wrote {path.relative_to(ROOT)}")
 
 
+def kajiya_kay(jobs=2):
+    """``addon/core/fits/kajiya_kay.py`` (:mod:`fitting.kajiya_kay`): how far
+    Kajiya-Kay's BSDF output is from the model, cell by cell of its exponent
+    and colour ratio."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from fitting import FITS
+    from fitting import kajiya_kay as K
+    with ProcessPoolExecutor(jobs) as pool:
+        measured = list(pool.map(K.measure, K.points()))
+    path = FITS / "kajiya_kay.py"
+    path.write_text(K.module_text(measured))
+    print(f"wrote {path.relative_to(ROOT)}")
+
+
 def _check_committed(todo, keys):
     """Exit unless the committed module comes from this fitter (so its other
     variants can be kept) and ``todo`` are variants."""
@@ -351,6 +369,10 @@ def main(argv=None) -> int:
                         help="measure how far Ward's BSDF output is from the model, per cell "
                              "of its widths (fitting/ward.py), and write "
                              "addon/core/fits/ward.py; make fit runs it")
+    parser.add_argument("--kajiya-kay", action="store_true",
+                        help="measure how far Kajiya-Kay's BSDF output is from the model, per "
+                             "cell of its exponent and colour ratio (fitting/kajiya_kay.py), "
+                             "and write addon/core/fits/kajiya_kay.py; make fit runs it")
     parser.add_argument("--collect", action="store_true",
                         help="write the mixtures from the fits made so far (build/fits); the "
                              "others get the single lobe and are listed as not fitted")
@@ -365,6 +387,9 @@ def main(argv=None) -> int:
         return 0
     if args.ward:
         ward(args.jobs)
+        return 0
+    if args.kajiya_kay:
+        kajiya_kay(args.jobs)
         return 0
     if args.collect:
         collect(args.jobs, args.only)

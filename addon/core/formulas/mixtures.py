@@ -144,6 +144,33 @@ def ward_figure(alpha_x=None, alpha_y=None):
     return max(_ward.FIGURES[a][b] for a in around(alpha_x) for b in around(alpha_y))
 
 
+def kajiya_kay_figure(exponent=None, kd=None, ks=None):
+    """The largest |BSDF output - model| over the peak that
+    ``fitting/kajiya_kay.py`` measured for Kajiya-Kay's model (views and
+    lights up to 70 deg) in the cell around the exponent and each colour
+    channel's ratio kd / (kd + ks), the largest over the channels (a channel
+    with kd = ks = 0 renders 0, as the model); with no values, the largest
+    of every cell."""
+    from ..fits import kajiya_kay as _kk
+    if exponent is None or kd is None or ks is None:
+        return max(max(row) for row in _kk.FIGURES)
+    nodes, ratios = _kk.NODES, _kk.RATIOS
+
+    def around(x, grid):
+        x = min(max(x, grid[0]), grid[-1])
+        return [j for j in range(len(grid) - 1) if grid[j] - 1e-12 <= x <= grid[j + 1] + 1e-12]
+
+    def channels(c):
+        return (float(c),) * 3 if isinstance(c, (int, float)) else tuple(float(v) for v in c)
+    rows = around(math.log1p(max(float(exponent), 0.0)), nodes)
+    out = 0.0
+    for d, k in zip(channels(kd), channels(ks)):
+        if d + k > 0.0:
+            out = max(out, max(_kk.FIGURES[j][r] for j in rows
+                               for r in around(d / (d + k), ratios)))
+    return out
+
+
 def worst_interval(key: str, fresnel_class: str):
     """The largest :func:`interval_bound` of the variant (its intervals
     within the closures' range), or None where not measured."""

@@ -135,6 +135,10 @@ class Formula:
         the widths where known (only the microfacet model's matter)."""
         return "approx"
 
+    # the parameters the BSDF output's status and figure depend on, besides
+    # the variant (``params`` of :meth:`fidelity`, :meth:`measured_error`)
+    status_params: tuple = ("beta", "alpha", "alpha_x", "alpha_y", "ior", "k")
+
     def measured_error(self, enums: dict, caps=ALL_CLOSURES, params=None) -> tuple:
         """``(error, where)``: the largest |BSDF output - model| over the
         model's peak that the fitter measured for this output (views and
@@ -710,6 +714,23 @@ class KajiyaKay(Formula):
         specular = v.p("ks") * L.lobe_of_tangent(sl * se - cl * ce, sn * sn, v.p("exponent"))
         return {"value": diffuse + specular, "Diffuse": diffuse, "Specular": specular,
                 "cos_theta_l": cl, "cos_theta_e": ce}
+
+    status_params = ("exponent", "kd", "ks")
+
+    def fidelity(self, enums, caps=ALL_CLOSURES, params=None):
+        figure, _where = self.measured_error(enums, caps, params)
+        return "fitted" if figure <= FIT_BOUND else "approx"
+
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        """``fitting/kajiya_kay.py``'s figure in the cell of the exponent and
+        the colours' ratio (the tangent in the surface)."""
+        from . import mixtures
+        if params is None:
+            return mixtures.kajiya_kay_figure(), AT_WORST_WIDTH
+        model = catalogue.MODELS["kajiya_kay"]
+        get = {n: params.get(n, model.param(n).default) for n in self.status_params}
+        return mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"]), \
+            AT_THIS_WIDTH
 
     def closure(self, v, s):
         # APPROXIMATION: no Kajiya-Kay closure; Lambert for the diffuse part
