@@ -446,8 +446,8 @@ def rendering_backend(scene=None, node=None) -> tuple:
 def bsdf_accuracy(node, scene=None) -> dict:
     """How the BSDF output of RM group ``node`` matches its model where
     ``scene`` (default: the context scene) renders it, as set now, at the
-    node's width and Fresnel indices (its variant's worst width where one
-    of those inputs is linked).  A dict:
+    node's width and Fresnel indices (Kajiya-Kay: its exponent and colours;
+    its variant's worst where one of those inputs is linked).  A dict:
 
     - ``"backend"``: the shaders that render the node
       (:func:`rendering_backend` of the scene and the node): "osl",
@@ -459,8 +459,9 @@ def bsdf_accuracy(node, scene=None) -> dict:
     - ``"max_abs_over_peak"``: the largest |output - model| over the
       model's peak that the offline fitter measured (views and lights up to
       70 deg; ``docs/verification.md``), or None where none was;
-    - ``"note"``: where that figure holds ("at this width", "at its worst
-      width"), or why there is none."""
+    - ``"note"``: where that figure holds ("at this width", "at this
+      exponent and these colours", "at its worst width"), or why there is
+      none."""
     model_id, variant = _rm_node_info(node)
     scene = _scene(scene, "bsdf_accuracy")
     backend, reason = rendering_backend(scene, node)

@@ -597,7 +597,7 @@ def test_bsdf_accuracy_says_how_far_the_bsdf_output_is_from_the_model(api, bpy):
     # Kajiya-Kay's two closures: measured per exponent and colour ratio
     hair = api.add_model(mat, "kajiya_kay", exponent=40.0, kd=0.2, ks=0.5)
     got = api.bsdf_accuracy(hair)
-    assert got["status"] == "approx" and got["note"] == formulas.AT_THIS_WIDTH
+    assert got["status"] == "approx" and got["note"] == formulas.AT_THESE_SETTINGS
     api.set_params(hair, exponent=1000.0)  # the hair lobe's peak grows as 1 / roughness^2
     assert api.bsdf_accuracy(hair)["max_abs_over_peak"] > 10 * got["max_abs_over_peak"]
     # Ward's weighted lobe: measured per cell of its widths (fitting/ward.py)

@@ -1917,7 +1917,7 @@ def test_a_kajiya_kay_cell_holds_its_figure_at_held_out_exponents_views_and_ligh
         rho = rng.uniform(K.RATIOS[k], K.RATIOS[k + 1])
         claimed, where = formulas.path_traced_error(
             "kajiya_kay", {}, {"exponent": s, "kd": rho, "ks": 1.0 - rho})
-        assert where == formulas.AT_THIS_WIDTH and claimed == data.FIGURES[j][k]
+        assert where == formulas.AT_THESE_SETTINGS and claimed == data.FIGURES[j][k]
         lights = K._dirs(np.radians(rng.uniform(0.0, 70.0, 20000)),
                          np.radians(rng.uniform(0.0, 360.0, 20000)))
         width = math.sqrt(2.0 / (s + 2.0))

@@ -286,6 +286,7 @@ def fit_error(key):
 
 # where a :meth:`Formula.measured_error` holds, and why there is none
 AT_THIS_WIDTH = "at this width"
+AT_THESE_SETTINGS = "at this exponent and these colours"  # Kajiya-Kay's cell
 AT_WORST_WIDTH = "at its worst width"
 CLOSURE_IS_MODEL = "a Cycles closure is the model"
 
@@ -730,7 +731,7 @@ class KajiyaKay(Formula):
         model = catalogue.MODELS["kajiya_kay"]
         get = {n: params.get(n, model.param(n).default) for n in self.status_params}
         return mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"]), \
-            AT_THIS_WIDTH
+            AT_THESE_SETTINGS
 
     def closure(self, v, s):
         # APPROXIMATION: no Kajiya-Kay closure; Lambert for the diffuse part
