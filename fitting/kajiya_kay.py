@@ -41,31 +41,24 @@ from pathlib import Path
 
 import numpy as np
 
+from . import ward as W
+
 X_MAX = math.log1p(10000.0)  # log(1 + s) over the socket's range [0, 10000]
 NODES = tuple(X_MAX * j / 16 for j in range(17))
 RATIOS = tuple(j / 10 for j in range(11))  # rho = kd / (kd + ks)
-DOMAIN_DEG = 70.0
-VIEW_STEP_DEG = 2.5
-VIEW_AZIMUTH_STEP_DEG = 7.5
+# the views' and the grid lights' sampling, and the domain, are Ward's
+DOMAIN_DEG, VIEW_STEP_DEG, VIEW_AZIMUTH_STEP_DEG = W.DOMAIN_DEG, W.VIEW_STEP_DEG, \
+    W.VIEW_AZIMUTH_STEP_DEG
 CONE_SPAN = 4.0  # lobe widths either side of the mirror cone
 CONE_SAMPLES = 41
-
-
-def _dirs(theta, phi):
-    return np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)],
-                    -1)
+_dirs, _grid_lights = W._dirs, W._grid_lights
 
 
 def views():
+    """Ward's views with their azimuths to 180 deg (Ward's lobe is even in
+    both axes, these terms in y only)."""
     t = np.radians(np.arange(0.0, DOMAIN_DEG + 1e-9, VIEW_STEP_DEG))
     p = np.radians(np.arange(0.0, 180.0 + 1e-9, VIEW_AZIMUTH_STEP_DEG))
-    T, P = np.meshgrid(t, p, indexing="ij")
-    return _dirs(T, P).reshape(-1, 3)
-
-
-def _grid_lights():
-    t = np.radians(np.linspace(0.0, DOMAIN_DEG, 71))
-    p = np.radians(np.linspace(0.0, 360.0, 181))
     T, P = np.meshgrid(t, p, indexing="ij")
     return _dirs(T, P).reshape(-1, 3)
 
@@ -153,9 +146,12 @@ def cells(measured: list) -> list:
 
 
 def fitter_hash() -> str:
-    """This module."""
+    """This module and Ward's, whose sampling it takes."""
     root = Path(__file__).resolve().parent.parent
-    return hashlib.sha256((root / "fitting/kajiya_kay.py").read_bytes()).hexdigest()[:16]
+    h = hashlib.sha256()
+    for rel in ("fitting/kajiya_kay.py", "fitting/ward.py"):
+        h.update((root / rel).read_bytes())
+    return h.hexdigest()[:16]
 
 
 def module_text(measured: list) -> str:

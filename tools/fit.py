@@ -239,30 +239,32 @@ def bounds(jobs=2):
 def ward(jobs=2):
     """``addon/core/fits/ward.py`` (:mod:`fitting.ward`): how far Ward's BSDF
     output is from the model, cell by cell of its widths."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    from fitting import FITS
     from fitting import ward as W
     points = W.points()
-    with ProcessPoolExecutor(jobs) as pool:
-        measured = dict(zip(points, pool.map(W.measure_point, points, chunksize=8)))
-    path = FITS / "ward.py"
-    path.write_text(W.module_text(measured))
-    print(f"wrote {path.relative_to(ROOT)}")
+    _write_measured("ward.py", W.module_text, dict(zip(points, _mapped(
+        W.measure_point, points, jobs, chunksize=8))))
 
 
 def kajiya_kay(jobs=2):
     """``addon/core/fits/kajiya_kay.py`` (:mod:`fitting.kajiya_kay`): how far
     Kajiya-Kay's BSDF output is from the model, cell by cell of its exponent
     and colour ratio."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    from fitting import FITS
     from fitting import kajiya_kay as K
+    _write_measured("kajiya_kay.py", K.module_text, _mapped(K.measure, K.points(), jobs))
+
+
+def _mapped(function, items, jobs, chunksize=1) -> list:
+    """``function`` of each of ``items``, in ``jobs`` processes."""
+    from concurrent.futures import ProcessPoolExecutor
     with ProcessPoolExecutor(jobs) as pool:
-        measured = list(pool.map(K.measure, K.points()))
-    path = FITS / "kajiya_kay.py"
-    path.write_text(K.module_text(measured))
+        return list(pool.map(function, items, chunksize=chunksize))
+
+
+def _write_measured(name, module_text, measured) -> None:
+    """``addon/core/fits/<name>`` from a measure's results."""
+    from fitting import FITS
+    path = FITS / name
+    path.write_text(module_text(measured))
     print(f"wrote {path.relative_to(ROOT)}")
 
 
