@@ -104,6 +104,13 @@ def fresnel_class(fresnel: str, params: dict):
     raise ValueError(f"fresnel must be one of {catalogue.FRESNELS}, not {fresnel!r}")
 
 
+def _cells_around(x, grid) -> list:
+    """The intervals j of ``grid`` (ascending nodes) that hold ``x``,
+    clamped to the grid: one, or two at a node."""
+    x = min(max(x, grid[0]), grid[-1])
+    return [j for j in range(len(grid) - 1) if grid[j] - 1e-12 <= x <= grid[j + 1] + 1e-12]
+
+
 def interval_bound(key: str, value: float, fresnel_class: str):
     """The largest error over the peak that ``fitting/bounds.py`` measured
     around the width ``value`` (beta in radians, or alpha: the parameter's
@@ -117,10 +124,7 @@ def interval_bound(key: str, value: float, fresnel_class: str):
         return None
     x = float(value) if entry["width"] == "beta" else math.log(max(float(value), 1e-30))
     nodes, values = entry["nodes"], entry[fresnel_class]
-    lo, hi = nodes[0], nodes[-1]
-    x = min(max(x, lo), hi)
-    near = [j for j in range(len(nodes) - 1) if nodes[j] - 1e-12 <= x <= nodes[j + 1] + 1e-12]
-    found = [values[j] for j in near]
+    found = [values[j] for j in _cells_around(x, nodes)]
     if not found or any(v is None for v in found):
         return None
     return max(found)
@@ -138,9 +142,7 @@ def ward_figure(alpha_x=None, alpha_y=None):
     nodes = _ward.NODES
 
     def around(alpha):
-        x = min(max(math.log(max(float(alpha), 1e-30)), nodes[0]), nodes[-1])
-        return [j for j in range(len(nodes) - 1)
-                if nodes[j] - 1e-12 <= x <= nodes[j + 1] + 1e-12]
+        return _cells_around(math.log(max(float(alpha), 1e-30)), nodes)
     return max(_ward.FIGURES[a][b] for a in around(alpha_x) for b in around(alpha_y))
 
 
@@ -156,9 +158,7 @@ def kajiya_kay_figure(exponent=None, kd=None, ks=None):
         return max(max(row) for row in _kk.FIGURES)
     nodes, ratios = _kk.NODES, _kk.RATIOS
 
-    def around(x, grid):
-        x = min(max(x, grid[0]), grid[-1])
-        return [j for j in range(len(grid) - 1) if grid[j] - 1e-12 <= x <= grid[j + 1] + 1e-12]
+    around = _cells_around
 
     def channels(c):
         return (float(c),) * 3 if isinstance(c, (int, float)) else tuple(float(v) for v in c)
