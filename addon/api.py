@@ -461,21 +461,27 @@ def bsdf_accuracy(node, scene=None) -> dict:
       70 deg; ``docs/verification.md``), or None where none was;
     - ``"note"``: where that figure holds ("at this width", "at this
       exponent and these colours", "at its worst width"), or why there is
-      none."""
+      none;
+    - ``"detail"``: a sentence on the part of the domain that decides the
+      figure, or None (Kajiya-Kay: the figure with the light on the view's
+      side across the fibre; on the other its hair closure is 0)."""
     model_id, variant = _rm_node_info(node)
     scene = _scene(scene, "bsdf_accuracy")
     backend, reason = rendering_backend(scene, node)
     if backend == "none":
-        return {"backend": "none", "status": "none", "max_abs_over_peak": None, "note": reason}
+        return {"backend": "none", "status": "none", "max_abs_over_peak": None, "note": reason,
+                "detail": None}
     if lighting.is_eevee(scene):
         return {"backend": backend, "status": "approx", "max_abs_over_peak": None,
-                "note": "EEVEE's own closures: not measured by the fitter"}
+                "note": "EEVEE's own closures: not measured by the fitter", "detail": None}
     params = _path_traced_params(node, catalogue.MODELS[model_id])
     enums = {k: v for k, v in variant.items()
              if k not in (groups.BACKEND_PARAM.name, groups.LIGHTS_PARAM.name)}
     status = formulas.path_traced_status(model_id, enums, params, bpy.app.version, backend)
     error, note = formulas.path_traced_error(model_id, enums, params, bpy.app.version, backend)
-    return {"backend": backend, "status": status, "max_abs_over_peak": error, "note": note}
+    detail = formulas.path_traced_detail(model_id, enums, params, bpy.app.version, backend)
+    return {"backend": backend, "status": status, "max_abs_over_peak": error, "note": note,
+            "detail": detail}
 
 
 # exact mode's bounds, as the checks hold them (verification/harness/checks.py,

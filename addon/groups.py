@@ -38,7 +38,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 26  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 27  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -104,6 +104,12 @@ NODES_VERSION = 26  # 2: a closure-only shader feeds the BSDF output;
 # 26: native Phong's switch between the engines takes Shader to RGB's Alpha
 #    through a Maximum node (Blender 5.3.0's EEVEE crashed on the Mix Shader
 #    fed by it directly, next to an Add Shader): files saved before get it
+# 27: Kajiya-Kay's hair reflection lobe takes a weight of the view that sets
+#    its peak to the model's (it was a normalised lobe, 3.8 times the model's
+#    peak at the default exponent, 600 toward 10,000), a latitudinal
+#    roughness 0.38 times the former and an azimuthal one of 1 (in EEVEE,
+#    which renders it as a diffuse closure, without the weight, behind the
+#    switch between the engines): groups saved before get it
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

@@ -728,8 +728,10 @@ def bsdf_status_lines(scene, node) -> list:
         return lines
     if error is None:
         return lines + [(note[:1].upper() + note[1:], 'BLANK1')]
-    return lines + [(f"Measured: at most {error:.2g} of the peak off", 'BLANK1'),
-                    (f"{note[:1].upper() + note[1:]}, views and lights to 70°", 'BLANK1')]
+    lines += [(f"Measured: at most {error:.2g} of the peak off", 'BLANK1'),
+              (f"{note[:1].upper() + note[1:]}, views and lights to 70°", 'BLANK1')]
+    detail = accuracy.get("detail")
+    return lines + ([(detail[:1].upper() + detail[1:], 'BLANK1')] if detail else [])
 
 
 # ---------------------------------------------------------------------------

@@ -6,13 +6,19 @@ step of ``make fit``).
 Kajiya-Kay's path-traced output is no fit (``Kajiya-Kay.closure`` in
 ``addon/core/formulas/models.py``): a diffuse closure of weight kd pi
 (kd cos theta_i where the model has kd sin theta_L) and Cycles' hair
-reflection closure of weight ks around the same fibre, its roughness
-sqrt(2 / (s + 2)) (:func:`hair_reflection`, read from Cycles'
-``kernel/closure/bsdf_hair.h``, not copied; checked against renders in
-``tests/test_fitting.py``).  Here what that leaves is measured, as
-``fitting/bounds.py`` measures the mixtures: the largest |output - model|
-over the model's peak with views and lights up to 70 deg, the fibre's
-tangent in the surface (the UV tangent, or it turned by Tangent Rotation).
+reflection closure around the same fibre, its latitudinal roughness
+HAIR_LATITUDE_SCALE sqrt(2 / (s + 2)), its azimuthal one 1, its weight ks
+times a weight of the view that sets its peak on the mirror cone to
+HAIR_PEAK_SCALE (:func:`hair_reflection`, read from Cycles'
+``kernel/closure/bsdf_hair.h``, not copied; :func:`peak_weight`; both
+checked against renders in ``tests/test_fitting.py``).  Here what that
+leaves is measured, as ``fitting/bounds.py`` measures the mixtures: the
+largest |output - model| over the model's peak with views and lights up
+to 70 deg, the fibre's tangent in the surface (the UV tangent, or it
+turned by Tangent Rotation).  The hair closure is 0 where the light and
+the view lie on opposite sides across the fibre (their azimuths about it
+more than 90 deg apart), where the model's cone is not: on the cone there
+the lobe's difference is the model's peak, whatever the weight.
 
 Per colour channel the difference is kd (cos theta_i - sin theta_L) + ks
 (hair - lobe) and the model's peak kd + ks (sin theta_L = 1 on the mirror
@@ -41,6 +47,8 @@ from pathlib import Path
 
 import numpy as np
 
+from addon.core.formulas.models import KajiyaKay
+
 from . import ward as W
 
 X_MAX = math.log1p(10000.0)  # log(1 + s) over the socket's range [0, 10000]
@@ -63,17 +71,39 @@ def views():
     return _dirs(T, P).reshape(-1, 3)
 
 
+HAIR_LATITUDE_SCALE = KajiyaKay.HAIR_LATITUDE_SCALE
+HAIR_PEAK_SCALE = KajiyaKay.HAIR_PEAK_SCALE
+
+
+def lobe_width(s):
+    """The model's lobe's width in latitude, sqrt(2 / (s + 2)) rad (cos^s
+    falls to about 1/e that far from the cone); the cone's lights are
+    sampled on its scale."""
+    return math.sqrt(2.0 / (s + 2.0))
+
+
 def roughness(s):
-    """The hair closure's roughness (both) for exponent s, as the shaders."""
-    return min(max(math.sqrt(2.0 / (s + 2.0)), 0.001), 1.0)
+    """The hair closure's latitudinal roughness for exponent s, as the
+    shaders (the azimuthal one is 1)."""
+    return min(max(HAIR_LATITUDE_SCALE * lobe_width(s), 0.001), 1.0)
 
 
-def hair_reflection(wi, wo, r):
-    """Cycles' hair reflection closure (offset 0, both roughnesses ``r``)
-    for the light ``wi`` and the view ``wo`` about the fibre x: a Cauchy
-    lobe in the half angle of the two latitudes times cos(phi / (2 r)) in
-    the azimuth between them about the fibre, 0 where that azimuth passes
-    90 deg or the light runs along the fibre."""
+def peak_weight(wo, r1):
+    """The hair closure's weight of the view (times ks), as the shaders:
+    HAIR_PEAK_SCALE 8 r1 (a - b) cos theta_r, which makes the closure's peak
+    (azimuthal roughness 1) HAIR_PEAK_SCALE on the view's mirror cone."""
+    th_r = np.arcsin(np.clip(wo[..., 0], -1.0, 1.0))
+    spread = np.arctan((math.pi / 2 + th_r) * 0.5 / r1) - \
+        np.arctan((th_r - math.pi / 2) * 0.5 / r1)
+    return HAIR_PEAK_SCALE * 8.0 * r1 * spread * np.cos(th_r)
+
+
+def hair_reflection(wi, wo, r1, r2=1.0):
+    """Cycles' hair reflection closure (offset 0; roughnesses ``r1`` in
+    latitude, ``r2`` in azimuth) for the light ``wi`` and the view ``wo``
+    about the fibre x: a Cauchy lobe in the half angle of the two latitudes
+    times cos(phi / (2 r2)) in the azimuth between them about the fibre, 0
+    where that azimuth passes 90 deg or the light runs along the fibre."""
     vz, lz = np.clip(wo[..., 0], -1.0, 1.0), np.clip(wi[..., 0], -1.0, 1.0)
 
     def across(w):
@@ -82,12 +112,13 @@ def hair_reflection(wi, wo, r):
         return y / np.maximum(np.linalg.norm(y, axis=-1, keepdims=True), 1e-30)
     th_r, th_i = np.arcsin(vz), np.arcsin(lz)
     c = np.sum(across(wo) * across(wi), -1)
-    phi = np.minimum(np.arccos(np.clip(c, -1.0, 1.0)) / r, math.pi)
-    a = np.arctan((math.pi / 2 + th_r) * 0.5 / r)
-    b = np.arctan((-math.pi / 2 + th_r) * 0.5 / r)
+    phi = np.minimum(np.arccos(np.clip(c, -1.0, 1.0)) / r2, math.pi)
+    a = np.arctan((math.pi / 2 + th_r) * 0.5 / r1)
+    b = np.arctan((-math.pi / 2 + th_r) * 0.5 / r1)
     t = (th_i + th_r) * 0.5
     with np.errstate(divide="ignore", invalid="ignore"):
-        v = np.cos(phi * 0.5) * 0.25 / r * r / (2.0 * (t * t + r * r) * (a - b) * np.cos(th_i))
+        v = np.cos(phi * 0.5) * 0.25 / r2 * r1 / (2.0 * (t * t + r1 * r1) * (a - b)
+                                                   * np.cos(th_i))
     return np.where((math.pi / 2 - np.abs(th_i) < 0.001) | (c < 0.0), 0.0, v)
 
 
@@ -102,18 +133,30 @@ def terms(wi, wo, s):
     with np.errstate(divide="ignore", invalid="ignore"):
         lobe = np.where(c > 0.0, c ** s, 0.0) if s > 0 else np.ones_like(c)
     d = np.maximum(wi[..., 2], 0.0) - sl
-    e = hair_reflection(wi, wo, roughness(s)) - lobe
+    r1 = roughness(s)
+    e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) - lobe
     return d, e
 
 
+def same_side(wi, wo):
+    """Whether the light and the view lie on one side across the fibre x
+    (their directions across it less than 90 deg apart): where the hair
+    closure is not 0.  A light on the boundary itself (90 deg apart, where
+    rounding decides whether the closure is 0) is on neither side: the
+    closure's limit from this side is cos(45 deg) of its peak, not 0."""
+    return wi[..., 1] * wo[..., 1] + wi[..., 2] * wo[..., 2] > 1e-9
+
+
 def measure(s: float) -> tuple:
-    """The largest |rho d + (1 - rho) e| (over the peak, which is 1) at
-    exponent ``s``, for each of RATIOS."""
+    """``(everywhere, same side)``: the largest |rho d + (1 - rho) e| (over
+    the peak, which is 1) at exponent ``s`` for each of RATIOS, over every
+    light and over the lights on the view's side across the fibre
+    (:func:`same_side`)."""
     grid = _grid_lights()
-    width = math.sqrt(2.0 / (s + 2.0))
+    width = lobe_width(s)
     edge = math.cos(math.radians(DOMAIN_DEG))
     rho = np.array(RATIOS)[:, None]
-    worst = np.zeros(len(RATIOS))
+    worst, near = np.zeros(len(RATIOS)), np.zeros(len(RATIOS))
     psi = np.radians(np.linspace(0.0, 360.0, 181))
     for wo in views():
         lat = -math.asin(max(-1.0, min(1.0, wo[0])))  # the mirror cone's latitude
@@ -124,8 +167,10 @@ def measure(s: float) -> tuple:
                         -1).reshape(-1, 3)
         wi = np.concatenate([grid, cone[cone[:, 2] >= edge - 1e-12]])
         d, e = terms(wi, wo[None], s)
-        worst = np.maximum(worst, np.max(np.abs(rho * d + (1.0 - rho) * e), axis=1))
-    return tuple(float(w) for w in worst)
+        err = np.abs(rho * d + (1.0 - rho) * e)
+        worst = np.maximum(worst, np.max(err, axis=1))
+        near = np.maximum(near, np.max(np.where(same_side(wi, wo[None]), err, 0.0), axis=1))
+    return tuple(float(w) for w in worst), tuple(float(w) for w in near)
 
 
 def points():
@@ -135,39 +180,45 @@ def points():
             for i in range(2 * (len(NODES) - 1) + 1)]
 
 
-def cells(measured: list) -> list:
+def cells(measured: list, part: int = 0) -> list:
     """``figure[j][k]``: exponents between NODES j, j + 1 and ratios between
     RATIOS k, k + 1: the largest of the two ratios at the interval's three
-    points (``measured``: :func:`measure` at :func:`points`), rounded up to
-    1e-5."""
-    return [[math.ceil(1e5 * max(measured[2 * j + p][k + q] for p in range(3)
+    points (``measured``: :func:`measure` at :func:`points`; ``part`` 0
+    everywhere, 1 on the view's side), rounded up to 1e-5."""
+    return [[math.ceil(1e5 * max(measured[2 * j + p][part][k + q] for p in range(3)
                                  for q in range(2))) / 1e5
              for k in range(len(RATIOS) - 1)] for j in range(len(NODES) - 1)]
 
 
 def fitter_hash() -> str:
-    """This module and Ward's, whose sampling it takes."""
+    """This module, Ward's, whose sampling it takes, and the shaders' two
+    constants of the hair closure."""
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
     for rel in ("fitting/kajiya_kay.py", "fitting/ward.py"):
         h.update((root / rel).read_bytes())
+    h.update(repr((HAIR_LATITUDE_SCALE, HAIR_PEAK_SCALE)).encode())
     return h.hexdigest()[:16]
 
 
 def module_text(measured: list) -> str:
-    figures = cells(measured)
     lines = [
         "# SPDX-License-Identifier: GPL-3.0-or-later\n",
         "# GENERATED by fitting/kajiya_kay.py (python -m tools.fit --kajiya-kay): do not edit.\n",
         '"""Per cell of Kajiya-Kay\'s exponent (log(1 + s)) and colour ratio kd / (kd +\n',
         "ks), the largest |BSDF output - model| over the model's peak (views and\n",
-        'lights up to 70 deg) that fitting/kajiya_kay.py measured."""\n',
+        'lights up to 70 deg) that fitting/kajiya_kay.py measured; SAME_SIDE: over\n',
+        "the lights on the view's side across the fibre only (the hair closure is 0\n",
+        'on the other)."""\n',
         "\n",
         f"FITTER = {fitter_hash()!r}\n",
         f"NODES = {tuple(NODES)!r}  # log(1 + s)\n",
         f"RATIOS = {tuple(RATIOS)!r}\n",
         "FIGURES = (  # FIGURES[j][k]: NODES j, j + 1; RATIOS k, k + 1\n",
     ]
-    lines += [f"    {tuple(row)!r},\n" for row in figures]
+    lines += [f"    {tuple(row)!r},\n" for row in cells(measured, 0)]
+    lines.append(")\n")
+    lines.append("SAME_SIDE = (\n")
+    lines += [f"    {tuple(row)!r},\n" for row in cells(measured, 1)]
     lines.append(")\n")
     return "".join(lines)

@@ -511,12 +511,15 @@ def _ward_numbers() -> dict:
 def _kajiya_kay_cells() -> str:
     """Kajiya-Kay's measured figures (addon/core/fits/kajiya_kay.py) in
     words: ratios 0-0.1 (mostly ks) and 0.9-1 (mostly kd) at a few exponent
-    cells."""
+    cells, everywhere and (in brackets) with the light on the view's side of
+    the fibre."""
     from addon.core.fits import kajiya_kay as data
     s = [math.expm1(x) for x in data.NODES]
     rows = [0, 6, 11, len(s) - 2]
-    return "; ".join(f"s {s[j]:.3g}-{s[j + 1]:.3g}: {data.FIGURES[j][0]:.3g} with ks over 90 % "
-                     f"of kd + ks, {data.FIGURES[j][-1]:.3g} with kd over 90 %" for j in rows)
+    return "; ".join(
+        f"s {s[j]:.3g}-{s[j + 1]:.3g}: {data.FIGURES[j][0]:.3g} ({data.SAME_SIDE[j][0]:.2g}) "
+        f"with ks over 90 % of kd + ks, {data.FIGURES[j][-1]:.3g} "
+        f"({data.SAME_SIDE[j][-1]:.2g}) with kd over 90 %" for j in rows)
 
 
 def _phong_band() -> str:
@@ -611,14 +614,18 @@ REMAINS = {
         "{ward_fitted}.  The hybrid mode is exact."),
     "kajiya_kay": (
         "Kajiya-Kay's lobe is a cone around the fibre with the exponent's profile; Cycles' "
-        "hair reflection lobe has its own (Gaussian in the longitudinal angle) and no "
+        "hair reflection lobe has its own (a Cauchy lobe in the latitudes' half angle "
+        "times cos(phi / 2) in the azimuth about the fibre, 0 beyond 90 deg) and no "
         "mixture of the available closures follows the light-dependent sin theta_L of the "
-        "diffuse part.  Measured cell by cell of the exponent and the colours' ratio kd / "
-        "(kd + ks), views and lights up to 70 deg (fitting/kajiya_kay.py, data in "
-        "addon/core/fits/kajiya_kay.py; the figure api.bsdf_accuracy states and the renders "
-        "are held to): {kk_cells}.  The hair lobe is normalised and peaks at about 1/(8 pi "
-        "r^2 cos theta), r = sqrt(2/(s + 2)), where the model's cone lobe peaks at 1: the "
-        "narrower the lobe, the further the output overshoots.  The hybrid mode is exact."),
+        "diffuse part.  Its latitudinal roughness is 0.38 sqrt(2/(s + 2)), its azimuthal "
+        "1, and a weight of the view sets its peak to 1.12 times the model's at every "
+        "exponent (the lobe alone is normalised: its peak grows as 1/roughness).  Measured "
+        "cell by cell of the exponent and the colours' ratio kd / (kd + ks), views and "
+        "lights up to 70 deg (fitting/kajiya_kay.py, data in addon/core/fits/"
+        "kajiya_kay.py; the figure api.bsdf_accuracy states and the renders are held to; "
+        "in brackets with the light on the view's side of the fibre): {kk_cells}.  On "
+        "the fibre's far side the hair lobe is 0 where the model's cone reaches its peak, "
+        "hence about 1 everywhere.  The hybrid mode is exact."),
     "phong": (
         "OSL's phong_ramp closure is Phong's lobe, so the OSL output is exact.  The native "
         "nodes have no such closure.  In Cycles (GPU devices, OSL off) they render a mixture "

@@ -122,6 +122,41 @@ def test_eevee_exact_and_path_traced(verify, api, case):
     assert r["finite"] and r["lit"]
 
 
+@pytest.mark.parametrize("exponent", [1.0, 40.0])
+def test_eevee_renders_kajiya_kays_hair_lobe_without_the_cycles_weight(api, bpy, exponent):
+    """EEVEE renders a hair closure as a diffuse one of its colour, where
+    the weight of the view that sets Cycles' hair lobe's peak to the
+    model's (about 6.6 at exponent 1) would only brighten a diffuse lobe:
+    Kajiya-Kay's native BSDF output there is a hair closure of colour ks,
+    rendered against a material of one Hair BSDF (Reflection) of that
+    colour on the same gonio (half float: 2^-11 relative, and 1e-3 of the
+    peak for GPU arithmetic)."""
+    images = []
+    for kind in ("model", "plain"):
+        mat, tree, out = common.empty_material(f"kk_eevee_{kind}_{exponent}")
+        if kind == "model":
+            api.add_model(mat, "kajiya_kay", kd=0.0, ks=0.6, exponent=exponent,
+                          backend="native")
+        else:
+            hair = tree.nodes.new("ShaderNodeBsdfHair")
+            hair.component = "Reflection"
+            hair.inputs["Color"].default_value = (0.6, 0.6, 0.6, 1.0)
+            tree.links.new(hair.outputs[0], out.inputs["Surface"])
+        g = gonio.build_gonio_scene(mat, light_dir=ONE_LIGHT[0], resolution=RES, osl=False,
+                                    name=f"kk_eevee_{kind}")
+        common.configure_eevee(g.scene)
+        try:
+            images.append(g.render()[g.mask])
+        finally:
+            bpy.data.scenes.remove(g.scene)
+            bpy.data.materials.remove(mat)
+    got, want = images
+    peak = float(want.max())
+    assert peak > 0.05 and np.all(np.isfinite(got))
+    assert np.max(np.abs(got - want)) <= 2.0 ** -11 * peak + 1e-3 * peak, \
+        (float(np.max(np.abs(got - want))), peak)
+
+
 # EEVEE away from the defaults: seeded random parameters over each model's
 # whole range (its own seed), the cases whose values on the gonio EEVEE's
 # half-float output can hold to 3e-3 of their peak: a peak among half

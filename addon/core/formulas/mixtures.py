@@ -146,16 +146,18 @@ def ward_figure(alpha_x=None, alpha_y=None):
     return max(_ward.FIGURES[a][b] for a in around(alpha_x) for b in around(alpha_y))
 
 
-def kajiya_kay_figure(exponent=None, kd=None, ks=None):
+def kajiya_kay_figure(exponent=None, kd=None, ks=None, same_side=False):
     """The largest |BSDF output - model| over the peak that
     ``fitting/kajiya_kay.py`` measured for Kajiya-Kay's model (views and
-    lights up to 70 deg) in the cell around the exponent and each colour
+    lights up to 70 deg; ``same_side``: the lights on the view's side
+    across the fibre) in the cell around the exponent and each colour
     channel's ratio kd / (kd + ks), the largest over the channels (a channel
     with kd = ks = 0 renders 0, as the model); with no values, the largest
     of every cell."""
     from ..fits import kajiya_kay as _kk
+    table = _kk.SAME_SIDE if same_side else _kk.FIGURES
     if exponent is None or kd is None or ks is None:
-        return max(max(row) for row in _kk.FIGURES)
+        return max(max(row) for row in table)
     nodes, ratios = _kk.NODES, _kk.RATIOS
 
     around = _cells_around
@@ -166,7 +168,7 @@ def kajiya_kay_figure(exponent=None, kd=None, ks=None):
     out = 0.0
     for d, k in zip(channels(kd), channels(ks)):
         if d + k > 0.0:
-            out = max(out, max(_kk.FIGURES[j][r] for j in rows
+            out = max(out, max(table[j][r] for j in rows
                                for r in around(d / (d + k), ratios)))
     return out
 

@@ -148,6 +148,12 @@ class Formula:
         ``(None, why)`` where none is measured."""
         return None, "not measured by the fitter: a term depends on the light direction"
 
+    def measured_detail(self, params=None):
+        """A sentence on the figure of :meth:`measured_error` where part of
+        the domain decides it (Kajiya-Kay: the far side of the fibre), or
+        None."""
+        return None
+
 
 class Lambert(Formula):
     model_id = "lambert"
@@ -733,12 +739,63 @@ class KajiyaKay(Formula):
         return mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"]), \
             AT_THESE_SETTINGS
 
+    def measured_detail(self, params=None):
+        """The figure with the light on the view's side across the fibre
+        (the hair closure is 0 on the other, where the model's cone lights
+        the fibre up to its peak)."""
+        from . import mixtures
+        if params is None:
+            figure = mixtures.kajiya_kay_figure(same_side=True)
+        else:
+            model = catalogue.MODELS["kajiya_kay"]
+            get = {n: params.get(n, model.param(n).default) for n in self.status_params}
+            figure = mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"],
+                                                same_side=True)
+        return (f"{figure:.2g} with the light on the view's side of the fibre (the hair "
+                "lobe is 0 on the other)")
+
+    # The hair lobe's shape (fitting/kajiya_kay.py): its latitudinal roughness
+    # this times sqrt(2 / (s + 2)) (a Cauchy lobe in the half angle is as wide
+    # at half its peak as cos^s at about 0.42), the azimuthal one 1
+    # (cos(phi / 2), from 1 to 0.71 over the 90 deg it reaches, where the
+    # model's cone is flat), and its peak on the view's mirror cone this
+    # times the model's.  Chosen on a grid of both (0.3-1.0 by 7, 0.6-1.25
+    # by 7) at s 1, 5, 20, 100, 1000 and 10,000, for the smallest largest
+    # difference where the closure is not 0: 0.38 at every s, 1.0-1.17 (1.1
+    # below s 20, 1.17 above 100).  The measure then found 0.33 of the peak
+    # there at the default s = 40, 0.27 above s = 100 (fits/kajiya_kay.py's
+    # SAME_SIDE)
+    HAIR_LATITUDE_SCALE = 0.38
+    HAIR_PEAK_SCALE = 1.12
+
     def closure(self, v, s):
         # APPROXIMATION: no Kajiya-Kay closure; Lambert for the diffuse part
-        # plus Cycles' own hair_reflection lobe around the same fibre.
-        rough = E.clamp(E.sqrt(div(2.0, v.p("exponent") + 2.0)), 0.001, 1.0)
-        return closure_sum(closure("diffuse", v.p("kd") * PI, s.n),
-                           closure("hair_reflection", v.p("ks"), s.n, rough, rough, s.tf, 0.0))
+        # plus Cycles' own hair_reflection lobe around the same fibre, its
+        # weight of the view making its peak the model's times
+        # HAIR_PEAK_SCALE: the lobe, phi_pdf theta_pdf in Cycles'
+        # bsdf_hair.h, peaks on the mirror cone (t = 0, phi = 0) at
+        # 1 / (8 r1 r2 (a - b) cos theta_r), a - b the normalisation over the
+        # latitudes from the view's theta_r (the light's cos theta_i is
+        # cos theta_r there).  It is 0 where the light and the view lie on
+        # opposite sides across the fibre (phi over 90 deg), where the
+        # model's cone is not.
+        r1 = E.clamp(self.HAIR_LATITUDE_SCALE * E.sqrt(div(2.0, v.p("exponent") + 2.0)),
+                     0.001, 1.0)
+        ce = E.dot(s.tf, s.wo)
+        se = E.length(E.cross(s.tf, s.wo))
+        theta_r = E.atan2(ce, se)
+        spread = E.atan(div(0.5 * PI + theta_r, 2.0 * r1)) - \
+            E.atan(div(theta_r - 0.5 * PI, 2.0 * r1))
+        peak = 8.0 * self.HAIR_PEAK_SCALE * r1 * spread * se
+        hair = closure("hair_reflection", v.p("ks") * peak, s.n, r1, 1.0, s.tf, 0.0)
+        if "glossy_toon" in (s.caps or ALL_CLOSURES):  # native nodes: EEVEE too
+            # EEVEE renders the hair closure as a diffuse one of its colour,
+            # where the weight of the view (about 2 at the default exponent,
+            # 6.6 at s = 1) would only brighten a diffuse lobe: ks there, as
+            # before the weight
+            hair = E.engine_switch(hair, closure("hair_reflection", v.p("ks"), s.n, r1, 1.0,
+                                                 s.tf, 0.0))
+        return closure_sum(closure("diffuse", v.p("kd") * PI, s.n), hair)
 
 
 FORMULAS = {f.model_id: f for f in (Lambert(), Phong(), BlinnPhong(), Microfacet(), Ward(),
@@ -781,6 +838,16 @@ def path_traced_error(model_id: str, enums: dict, params=None, blender_version=(
             and FORMULAS[model_id].fidelity(enums, caps, params=params) != "approx":
         return None, "Blender 4.5's conductor closure: an older Fresnel, not measured"
     return FORMULAS[model_id].measured_error(enums, caps, params=params)
+
+
+def path_traced_detail(model_id: str, enums: dict, params=None, blender_version=(5, 2),
+                       backend: str = "osl"):
+    """A sentence on where :func:`path_traced_error`'s figure is reached
+    (:meth:`Formula.measured_detail`), or None (no figure, or nothing to
+    add)."""
+    if path_traced_error(model_id, enums, params, blender_version, backend)[0] is None:
+        return None
+    return FORMULAS[model_id].measured_detail(params)
 
 
 def exact(model_id: str, v: Values, s: Shading, lights=None) -> dict:
