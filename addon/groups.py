@@ -38,7 +38,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 27  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 28  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -110,6 +110,9 @@ NODES_VERSION = 27  # 2: a closure-only shader feeds the BSDF output;
 #    roughness 0.38 times the former and an azimuthal one of 1 (in EEVEE,
 #    which renders it as a diffuse closure, without the weight, behind the
 #    switch between the engines): groups saved before get it
+# 28: Kajiya-Kay's diffuse closure weighted 2 / (1 + cos 70 deg) = 1.49
+#    (its largest difference from kd sin theta_L over lights to 70 deg 0.49
+#    of the peak, 0.66 before): groups saved before get it
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

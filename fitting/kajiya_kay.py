@@ -5,9 +5,10 @@ step of ``make fit``).
 
 Kajiya-Kay's path-traced output is no fit (``Kajiya-Kay.closure`` in
 ``addon/core/formulas/models.py``): a diffuse closure of weight kd pi
-(kd cos theta_i where the model has kd sin theta_L) and Cycles' hair
-reflection closure around the same fibre, its latitudinal roughness
-HAIR_LATITUDE_SCALE sqrt(2 / (s + 2)), its azimuthal one 1, its weight ks
+DIFFUSE_SCALE (kd DIFFUSE_SCALE cos theta_i where the model has kd sin
+theta_L) and Cycles' hair reflection closure around the same fibre, its
+latitudinal roughness HAIR_LATITUDE_SCALE sqrt(2 / (s + 2)), its
+azimuthal one 1, its weight ks
 times a weight of the view that sets its peak on the mirror cone to
 HAIR_PEAK_SCALE (:func:`hair_reflection`, read from Cycles'
 ``kernel/closure/bsdf_hair.h``, not copied; :func:`peak_weight`; both
@@ -20,7 +21,8 @@ the view lie on opposite sides across the fibre (their azimuths about it
 more than 90 deg apart), where the model's cone is not: on the cone there
 the lobe's difference is the model's peak, whatever the weight.
 
-Per colour channel the difference is kd (cos theta_i - sin theta_L) + ks
+Per colour channel the difference is kd (DIFFUSE_SCALE cos theta_i - sin
+theta_L) + ks
 (hair - lobe) and the model's peak kd + ks (sin theta_L = 1 on the mirror
 cone), so over the peak it depends on the exponent and on rho = kd / (kd +
 ks) alone, and for one set of directions it is the largest of |rho d + (1 -
@@ -73,6 +75,7 @@ def views():
 
 HAIR_LATITUDE_SCALE = KajiyaKay.HAIR_LATITUDE_SCALE
 HAIR_PEAK_SCALE = KajiyaKay.HAIR_PEAK_SCALE
+DIFFUSE_SCALE = KajiyaKay.DIFFUSE_SCALE
 
 
 def lobe_width(s):
@@ -132,7 +135,7 @@ def terms(wi, wo, s):
     c = np.maximum(sl * se - cl * ce, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         lobe = np.where(c > 0.0, c ** s, 0.0) if s > 0 else np.ones_like(c)
-    d = np.maximum(wi[..., 2], 0.0) - sl
+    d = DIFFUSE_SCALE * np.maximum(wi[..., 2], 0.0) - sl
     r1 = roughness(s)
     e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) - lobe
     return d, e
@@ -191,13 +194,13 @@ def cells(measured: list, part: int = 0) -> list:
 
 
 def fitter_hash() -> str:
-    """This module, Ward's, whose sampling it takes, and the shaders' two
-    constants of the hair closure."""
+    """This module, Ward's, whose sampling it takes, and the shaders'
+    constants of the two closures."""
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
     for rel in ("fitting/kajiya_kay.py", "fitting/ward.py"):
         h.update((root / rel).read_bytes())
-    h.update(repr((HAIR_LATITUDE_SCALE, HAIR_PEAK_SCALE)).encode())
+    h.update(repr((HAIR_LATITUDE_SCALE, HAIR_PEAK_SCALE, DIFFUSE_SCALE)).encode())
     return h.hexdigest()[:16]
 
 

@@ -1947,7 +1947,7 @@ def test_a_kajiya_kay_cell_holds_its_figure_at_held_out_exponents_views_and_ligh
 @pytest.mark.parametrize("osl", [True, False], ids=["osl", "svm"])
 @pytest.mark.parametrize("exponent", [5.0, 40.0])
 def test_kajiya_kays_transcription_is_what_its_bsdf_output_renders(bpy, api, osl, exponent):
-    """fitting/kajiya_kay.py's closures (kd cos theta_i and Cycles' hair
+    """fitting/kajiya_kay.py's closures (kd w cos theta_i and Cycles' hair
     reflection lobe with its two roughnesses apart and its weight of the
     view, in the frame of the normal and the fibre) against the
     Kajiya-Kay node's BSDF output rendered on the gonio (the UV tangent as
@@ -1969,7 +1969,7 @@ def test_kajiya_kays_transcription_is_what_its_bsdf_output_renders(bpy, api, osl
     wi, wo = frame(g.wi[g.mask]), frame(g.wo[g.mask])
     lit = wi[:, 2] > 0.0  # below the surface the hair closure's reflection is not evaluated
     r1 = K.roughness(exponent)
-    want = kd * np.maximum(wi[:, 2], 0.0) + ks * np.where(
+    want = kd * K.DIFFUSE_SCALE * np.maximum(wi[:, 2], 0.0) + ks * np.where(
         lit, K.peak_weight(wo, r1) * K.hair_reflection(wi, wo, r1), 0.0)
     got = img[g.mask][:, 0].astype(np.float64)
     peak = float(want.max())

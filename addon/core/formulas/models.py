@@ -763,14 +763,22 @@ class KajiyaKay(Formula):
     # by 7) at s 1, 5, 20, 100, 1000 and 10,000, for the smallest largest
     # difference where the closure is not 0: 0.38 at every s, 1.0-1.17 (1.1
     # below s 20, 1.17 above 100).  The measure then found 0.33 of the peak
-    # there at the default s = 40, 0.27 above s = 100 (fits/kajiya_kay.py's
+    # there at the default s = 40, 0.25-0.29 above s = 100 (fits/kajiya_kay.py's
     # SAME_SIDE)
     HAIR_LATITUDE_SCALE = 0.38
     HAIR_PEAK_SCALE = 1.12
+    # The diffuse closure's kd cos theta_i against the model's kd sin theta_L
+    # (no view in either): over lights to 70 deg the largest |w cos theta_i -
+    # sin theta_L| is w - 1 (the light at the normal) or 1 - w cos 70 deg
+    # (grazing across the fibre), equal at this w: 0.490 of the peak (0.658
+    # at w = 1).  Under a uniform sky the model's term sums to pi^2 / 2 and
+    # Lambert's to pi, a ratio of 1.57.
+    DIFFUSE_SCALE = 2.0 / (1.0 + math.cos(math.radians(70.0)))
 
     def closure(self, v, s):
-        # APPROXIMATION: no Kajiya-Kay closure; Lambert for the diffuse part
-        # plus Cycles' own hair_reflection lobe around the same fibre, its
+        # APPROXIMATION: no Kajiya-Kay closure; Lambert times DIFFUSE_SCALE
+        # for the diffuse part plus Cycles' own hair_reflection lobe around
+        # the same fibre, its
         # weight of the view making its peak the model's times
         # HAIR_PEAK_SCALE: the lobe, phi_pdf theta_pdf in Cycles'
         # bsdf_hair.h, peaks on the mirror cone (t = 0, phi = 0) at
@@ -795,7 +803,7 @@ class KajiyaKay(Formula):
             # before the weight
             hair = E.engine_switch(hair, closure("hair_reflection", v.p("ks"), s.n, r1, 1.0,
                                                  s.tf, 0.0))
-        return closure_sum(closure("diffuse", v.p("kd") * PI, s.n), hair)
+        return closure_sum(closure("diffuse", v.p("kd") * (PI * self.DIFFUSE_SCALE), s.n), hair)
 
 
 FORMULAS = {f.model_id: f for f in (Lambert(), Phong(), BlinnPhong(), Microfacet(), Ward(),
