@@ -3,13 +3,13 @@
 exponent and its colours' ratio (``python -m tools.fit --kajiya-kay``, a
 step of ``make fit``).
 
-Kajiya-Kay's path-traced output is no fit (``Kajiya-Kay.closure`` in
-``addon/core/formulas/models.py``): a diffuse closure of weight kd pi
-DIFFUSE_SCALE (kd DIFFUSE_SCALE cos theta_i where the model has kd sin
-theta_L) and Cycles' hair reflection closure around the same fibre, its
-latitudinal roughness HAIR_LATITUDE_SCALE sqrt(2 / (s + 2)), its
-azimuthal one 1, its weight ks
-times a weight of the view that sets its peak on the mirror cone to
+Kajiya-Kay's path-traced output is no fit (``KajiyaKay.closure`` in
+``addon/core/formulas/models.py``, whose constants this module takes): a
+diffuse closure of weight kd pi DIFFUSE_SCALE (kd DIFFUSE_SCALE cos
+theta_i where the model has kd sin theta_L) and Cycles' hair reflection
+closure around the same fibre, its latitudinal roughness
+HAIR_LATITUDE_SCALE sqrt(2 / (s + 2)), its azimuthal one 1, its weight
+ks times a weight of the view that sets its peak on the mirror cone to
 HAIR_PEAK_SCALE (:func:`hair_reflection`, read from Cycles'
 ``kernel/closure/bsdf_hair.h``, not copied; :func:`peak_weight`; both
 checked against renders in ``tests/test_fitting.py``).  Here what that
@@ -22,11 +22,11 @@ more than 90 deg apart), where the model's cone is not: on the cone there
 the lobe's difference is the model's peak, whatever the weight.
 
 Per colour channel the difference is kd (DIFFUSE_SCALE cos theta_i - sin
-theta_L) + ks
-(hair - lobe) and the model's peak kd + ks (sin theta_L = 1 on the mirror
-cone), so over the peak it depends on the exponent and on rho = kd / (kd +
-ks) alone, and for one set of directions it is the largest of |rho d + (1 -
-rho) e|, convex in rho: over an interval of rho its largest is at an end.
+theta_L) + ks (weighted hair - lobe) and the model's peak kd + ks (sin
+theta_L = 1 on the mirror cone), so over the peak it depends on the
+exponent and on rho = kd / (kd + ks) alone, and for one set of directions
+it is the largest of |rho d + (1 - rho) e|, convex in rho: over an
+interval of rho its largest is at an end.
 So a cell's figure is the larger of its two ratios' at the exponent
 interval's two nodes and its midpoint (in log(1 + s)).
 

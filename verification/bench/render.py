@@ -57,8 +57,9 @@ CLOSURE_FLOORS = {
                   '0.21, 0.21, 1.5, "beckmann");',
     # Ward: alpha_x 0.3, alpha_y 0.08
     "beckmann-aniso": 'BSDF = microfacet("beckmann", N, normalize(tangent), 0.3, 0.08, 0.0, 0);',
-    # Kajiya-Kay: exponent 40 is hair roughness sqrt(2 / 42)
-    "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.218, 0.218, "
+    # Kajiya-Kay: exponent 40 is the hair lobe's latitudinal roughness
+    # 0.38 sqrt(2 / 42), its azimuthal one 1 (KajiyaKay.closure)
+    "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.0829, 1.0, "
                     "normalize(tangent), 0.0);",
 }
 
