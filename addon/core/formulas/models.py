@@ -792,8 +792,11 @@ class KajiyaKay(Formula):
         ce = E.dot(s.tf, s.wo)
         se = E.length(E.cross(s.tf, s.wo))
         theta_r = E.atan2(ce, se)
-        spread = E.atan(div(0.5 * PI + theta_r, 2.0 * r1)) - \
-            E.atan(div(theta_r - 0.5 * PI, 2.0 * r1))
+        # a - b = atan(x1) - atan(x2), x1 = (pi/2 + theta_r) / (2 r1) > 0 >
+        # x2 = (theta_r - pi/2) / (2 r1), is in (0, pi): one atan2 of
+        # (x1 - x2, 1 + x1 x2), both times 4 r1^2 (what Cycles folds, r1's
+        # terms, is most of it)
+        spread = E.atan2(2.0 * PI * r1, 4.0 * r1 * r1 - 0.25 * PI * PI + theta_r * theta_r)
         peak = 8.0 * self.HAIR_PEAK_SCALE * r1 * spread * se
         hair = closure("hair_reflection", v.p("ks") * peak, s.n, r1, 1.0, s.tf, 0.0)
         if "glossy_toon" in (s.caps or ALL_CLOSURES):  # native nodes: EEVEE too
