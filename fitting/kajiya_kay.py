@@ -134,7 +134,9 @@ def terms(wi, wo, s):
     se = np.hypot(wo[..., 1], wo[..., 2])
     c = np.maximum(sl * se - cl * ce, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        lobe = np.where(c > 0.0, c ** s, 0.0) if s > 0 else np.ones_like(c)
+        # at s = 0 too: 1 within 90 deg of the cone, 0 beyond (the reference's
+        # 0^0 = 0 below the cut-off)
+        lobe = np.where(c > 0.0, c ** s, 0.0)
     d = DIFFUSE_SCALE * np.maximum(wi[..., 2], 0.0) - sl
     r1 = roughness(s)
     e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) - lobe
