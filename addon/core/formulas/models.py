@@ -728,31 +728,28 @@ class KajiyaKay(Formula):
         figure, _where = self.measured_error(enums, caps, params)
         return "fitted" if figure <= FIT_BOUND else "approx"
 
-    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+    def _figure(self, params, same_side=False):
         """``fitting/kajiya_kay.py``'s figure in the cell of the exponent and
-        the colours' ratio (the tangent in the surface)."""
+        the colours' ratio in ``params`` (their defaults where absent), or
+        the worst cell's where ``params`` is None."""
         from . import mixtures
         if params is None:
-            return mixtures.kajiya_kay_figure(), AT_WORST_WIDTH
+            return mixtures.kajiya_kay_figure(same_side=same_side)
         model = catalogue.MODELS["kajiya_kay"]
         get = {n: params.get(n, model.param(n).default) for n in self.status_params}
-        return mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"]), \
-            AT_THESE_SETTINGS
+        return mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"],
+                                          same_side=same_side)
+
+    def measured_error(self, enums, caps=ALL_CLOSURES, params=None):
+        """The figure over every light (the tangent in the surface)."""
+        return self._figure(params), AT_WORST_WIDTH if params is None else AT_THESE_SETTINGS
 
     def measured_detail(self, params=None):
         """The figure with the light on the view's side across the fibre
         (the hair closure is 0 on the other, where the model's cone lights
         the fibre up to its peak)."""
-        from . import mixtures
-        if params is None:
-            figure = mixtures.kajiya_kay_figure(same_side=True)
-        else:
-            model = catalogue.MODELS["kajiya_kay"]
-            get = {n: params.get(n, model.param(n).default) for n in self.status_params}
-            figure = mixtures.kajiya_kay_figure(get["exponent"], get["kd"], get["ks"],
-                                                same_side=True)
-        return (f"{figure:.2g} with the light on the view's side of the fibre (the hair "
-                "lobe is 0 on the other)")
+        return (f"{self._figure(params, same_side=True):.2g} with the light on the view's "
+                "side of the fibre (the hair lobe is 0 on the other)")
 
     # The hair lobe's shape (fitting/kajiya_kay.py): its latitudinal roughness
     # this times sqrt(2 / (s + 2)) (a Cauchy lobe in the half angle is as wide
