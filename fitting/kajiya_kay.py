@@ -129,18 +129,23 @@ def terms(wi, wo, s):
     """(d, e): the diffuse and specular terms' differences, output - model,
     for kd = 1 and ks = 1 (the model's lobe max(0, sinL sinE - cosL cosE)^s
     as the reference writes it)."""
+    sl = np.hypot(wi[..., 1], wi[..., 2])
+    d = DIFFUSE_SCALE * np.maximum(wi[..., 2], 0.0) - sl
+    r1 = roughness(s)
+    e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) - lobe(wi, wo, s)
+    return d, e
+
+
+def lobe(wi, wo, s):
+    """The model's specular lobe for ks = 1, max(0, sinL sinE - cosL cosE)^s
+    as the reference writes it (at s = 0 too: 1 within 90 deg of the cone,
+    0 beyond, the reference's 0^0 = 0 below the cut-off)."""
     cl, ce = wi[..., 0], wo[..., 0]
     sl = np.hypot(wi[..., 1], wi[..., 2])
     se = np.hypot(wo[..., 1], wo[..., 2])
     c = np.maximum(sl * se - cl * ce, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        # at s = 0 too: 1 within 90 deg of the cone, 0 beyond (the reference's
-        # 0^0 = 0 below the cut-off)
-        lobe = np.where(c > 0.0, c ** s, 0.0)
-    d = DIFFUSE_SCALE * np.maximum(wi[..., 2], 0.0) - sl
-    r1 = roughness(s)
-    e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) - lobe
-    return d, e
+        return np.where(c > 0.0, c ** s, 0.0)
 
 
 def same_side(wi, wo):
@@ -152,25 +157,32 @@ def same_side(wi, wo):
     return wi[..., 1] * wo[..., 1] + wi[..., 2] * wo[..., 2] > 1e-9
 
 
+def lights(wo, s):
+    """The lights measured for the view ``wo`` at exponent ``s``: the grid of
+    the domain and, on the lobe's own scale, those about the view's mirror
+    cone (within CONE_SPAN lobe widths of its latitude, 181 azimuths about
+    the fibre) inside the domain."""
+    width = lobe_width(s)
+    edge = math.cos(math.radians(DOMAIN_DEG))
+    psi = np.radians(np.linspace(0.0, 360.0, 181))
+    lat = -math.asin(max(-1.0, min(1.0, wo[0])))  # the mirror cone's latitude
+    lats = np.clip(lat + np.linspace(-CONE_SPAN, CONE_SPAN, CONE_SAMPLES) * width,
+                   -math.pi / 2, math.pi / 2)
+    L, P = np.meshgrid(lats, psi, indexing="ij")
+    cone = np.stack([np.sin(L), np.cos(L) * np.cos(P), np.cos(L) * np.sin(P)],
+                    -1).reshape(-1, 3)
+    return np.concatenate([_grid_lights(), cone[cone[:, 2] >= edge - 1e-12]])
+
+
 def measure(s: float) -> tuple:
     """``(everywhere, same side)``: the largest |rho d + (1 - rho) e| (over
     the peak, which is 1) at exponent ``s`` for each of RATIOS, over every
     light and over the lights on the view's side across the fibre
     (:func:`same_side`)."""
-    grid = _grid_lights()
-    width = lobe_width(s)
-    edge = math.cos(math.radians(DOMAIN_DEG))
     rho = np.array(RATIOS)[:, None]
     worst, near = np.zeros(len(RATIOS)), np.zeros(len(RATIOS))
-    psi = np.radians(np.linspace(0.0, 360.0, 181))
     for wo in views():
-        lat = -math.asin(max(-1.0, min(1.0, wo[0])))  # the mirror cone's latitude
-        lats = np.clip(lat + np.linspace(-CONE_SPAN, CONE_SPAN, CONE_SAMPLES) * width,
-                       -math.pi / 2, math.pi / 2)
-        L, P = np.meshgrid(lats, psi, indexing="ij")
-        cone = np.stack([np.sin(L), np.cos(L) * np.cos(P), np.cos(L) * np.sin(P)],
-                        -1).reshape(-1, 3)
-        wi = np.concatenate([grid, cone[cone[:, 2] >= edge - 1e-12]])
+        wi = lights(wo, s)
         d, e = terms(wi, wo[None], s)
         err = np.abs(rho * d + (1.0 - rho) * e)
         worst = np.maximum(worst, np.max(err, axis=1))

@@ -4,7 +4,8 @@ time (``python -m fitting.limits``; about 15 minutes on two cores;
 ``--shipped``: the committed data's error alone at the same widths;
 ``--capped [KEY]``: Blinn-Phong's or KEY's weights re-solved under its
 bound, what that costs in albedo; ``--fresnel``: what the diffuse member's
-Fresnel costs the Fresnel variants).
+Fresnel costs the Fresnel variants; ``--kajiya-kay``: an anisotropic GGX
+lobe in place of Kajiya-Kay's hair lobe, with the best weight per view).
 
 A fitted mixture (:mod:`.mixtures`) gives its members one width per width
 node, the same at every view, and interpolates weights and widths between
@@ -283,6 +284,70 @@ def lambert_by_lobes(views=VIEWS_DEG, alphas=LOBE_ALPHAS):
     return out
 
 
+KK_EXPONENTS = (1.0, 5.0, 40.0, 200.0, 1000.0, 10000.0)
+KK_MULTIPLES = (0.7, 0.85, 1.0, 1.15, 1.3)
+
+
+def minimax_weight(f, target):
+    """``(w, e)``: the weight w >= 0 that makes e = max |w f - target|
+    smallest (a ternary search: the largest is convex in w; beyond
+    2 max target / max f it only grows)."""
+    lo, hi = 0.0, 2.0 * float(np.max(target)) / max(float(np.max(f)), 1e-300)
+    for _ in range(80):
+        a, b = lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0
+        if np.max(np.abs(a * f - target)) <= np.max(np.abs(b * f - target)):
+            hi = b
+        else:
+            lo = a
+    w = 0.5 * (lo + hi)
+    return w, float(np.max(np.abs(w * f - target)))
+
+
+def kajiya_kay_anisotropic(s, multiple, views=None):
+    """``(everywhere, same side)`` for Kajiya-Kay's lobe (ks = 1) drawn by
+    Cycles' anisotropic GGX closure instead of the hair one: its roughness
+    along the fibre ``multiple`` times the model's lobe width sqrt(2 / (s +
+    2)) (capped at 1), across it 1, where GGX's distribution depends on the
+    half vector's component along the fibre alone, so the lobe's ridge is
+    the model's mirror cone (H perpendicular to T) at every azimuth and has
+    no far-side cut; its weight the best for each view (:func:`minimax_weight`
+    over every light).  ``fitting/kajiya_kay.py``'s views (or ``views``),
+    lights and sides; the largest |w lobe - model| over the model's peak."""
+    from . import closures as C
+    from . import kajiya_kay as K
+    ax = min(multiple * K.lobe_width(s), 1.0)
+    worst = near = 0.0
+    for wo in K.views() if views is None else views:
+        wi = K.lights(wo, s)
+        f = C.microfacet(wi, wo[None], ax, 1.0, "ggx")
+        target = K.lobe(wi, wo[None], s)
+        w, e = minimax_weight(f, target)
+        worst = max(worst, e)
+        near = max(near, float(np.max(np.where(K.same_side(wi, wo[None]),
+                                                np.abs(w * f - target), 0.0))))
+    return worst, near
+
+
+def kajiya_kay(exponents=KK_EXPONENTS, multiples=KK_MULTIPLES):
+    """``--kajiya-kay`` (about 10 minutes): :func:`kajiya_kay_anisotropic`
+    at each exponent and roughness multiple, beside the shipped hair lobe's
+    figures there (ks only: ``fitting/kajiya_kay.py``'s measure at rho =
+    0)."""
+    from . import kajiya_kay as K
+    print("Kajiya-Kay's lobe (ks only) as an anisotropic GGX lobe with the best weight per "
+          "view,\nagainst the shipped hair lobe (max |output - model| over the peak, views "
+          "and lights to 70 deg)\n")
+    print(f"{'s':>7s} {'multiple':>8s} {'everywhere':>10s} {'view side':>9s}   "
+          f"{'hair: everywhere':>16s} {'view side':>9s}")
+    for s in exponents:
+        everywhere, near = K.measure(s)
+        for m in multiples:
+            a, b = kajiya_kay_anisotropic(s, m)
+            print(f"{s:7g} {m:8.2f} {a:10.3f} {b:9.3f}   {everywhere[0]:16.3f} "
+                  f"{near[0]:9.3f}", flush=True)
+    return 0
+
+
 def _band(band):
     return "none" if band >= NO_BAND else f"{band:g}"
 
@@ -293,4 +358,6 @@ if __name__ == "__main__":
         raise SystemExit(capped(*sys.argv[2:3]))
     if sys.argv[1:] == ["--fresnel"]:
         raise SystemExit(fresnel())
+    if sys.argv[1:] == ["--kajiya-kay"]:
+        raise SystemExit(kajiya_kay())
     raise SystemExit(shipped() if sys.argv[1:] == ["--shipped"] else main())

@@ -627,7 +627,12 @@ REMAINS = {
         "kajiya_kay.py; the figure api.bsdf_accuracy states and the renders are held to; "
         "in brackets with the light on the view's side of the fibre): {kk_cells}.  On "
         "the fibre's far side the hair lobe is 0 where the model's cone reaches its peak, "
-        "hence about 1 everywhere.  The hybrid mode is exact."),
+        "hence about 1 everywhere.  An anisotropic GGX lobe about the fibre (roughness "
+        "sqrt(2/(s + 2)) along it, 1 across: no far-side cut) with the best weight per view "
+        "errs 0.41-0.43 of the peak over every light at every exponent, but as much on the "
+        "view's side, more than the hair lobe there above s of about 10 (python -m "
+        "fitting.limits --kajiya-kay; docs/verification.md): not shipped.  The hybrid mode "
+        "is exact."),
     "phong": (
         "OSL's phong_ramp closure is Phong's lobe, so the OSL output is exact.  The native "
         "nodes have no such closure.  In Cycles (GPU devices, OSL off) they render a mixture "
