@@ -38,7 +38,7 @@ from .core.variants import (  # noqa: F401  (re-exported for the UI and the test
     output_label, resolve_variant, socket_params, uses_tangent, variant_key, variant_params,
 )
 
-NODES_VERSION = 29  # 2: a closure-only shader feeds the BSDF output;
+NODES_VERSION = 30  # 2: a closure-only shader feeds the BSDF output;
 # 3: the UV Tangent node only in variants that use a tangent;
 # 4: shaders generated from the formula description (rm_library.h);
 # 5: native nodes beside the OSL shaders, switched by rm_osl (backend 'auto');
@@ -116,6 +116,10 @@ NODES_VERSION = 29  # 2: a closure-only shader feeds the BSDF output;
 # 29: the hair weight's normalisation a - b as one arc tangent of two
 #    arguments (it was two arc tangents and two divisions): fewer native
 #    nodes for groups saved before
+# 30: Kajiya-Kay's BSDF output adds an anisotropic GGX lobe about the fibre,
+#    which lights the mirror cone across the fibre from the view, where the
+#    hair lobe is 0 (its figure over every light 0.84 of the peak, 1.0
+#    before): groups saved before get it
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""
 

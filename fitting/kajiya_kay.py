@@ -6,20 +6,24 @@ step of ``make fit``).
 Kajiya-Kay's path-traced output is no fit (``KajiyaKay.closure`` in
 ``addon/core/formulas/models.py``, whose constants this module takes): a
 diffuse closure of weight kd pi DIFFUSE_SCALE (kd DIFFUSE_SCALE cos
-theta_i where the model has kd sin theta_L) and Cycles' hair reflection
+theta_i where the model has kd sin theta_L), Cycles' hair reflection
 closure around the same fibre, its latitudinal roughness
 HAIR_LATITUDE_SCALE sqrt(2 / (s + 2)), its azimuthal one 1, its weight
 ks times a weight of the view that sets its peak on the mirror cone to
 HAIR_PEAK_SCALE (:func:`hair_reflection`, read from Cycles'
-``kernel/closure/bsdf_hair.h``, not copied; :func:`peak_weight`; both
-checked against renders in ``tests/test_fitting.py``).  Here what that
-leaves is measured, as ``fitting/bounds.py`` measures the mixtures: the
-largest |output - model| over the model's peak with views and lights up
-to 70 deg, the fibre's tangent in the surface (the UV tangent, or it
-turned by Tangent Rotation).  The hair closure is 0 where the light and
-the view lie on opposite sides across the fibre (their azimuths about it
-more than 90 deg apart), where the model's cone is not: on the cone there
-the lobe's difference is the model's peak, whatever the weight.
+``kernel/closure/bsdf_hair.h``, not copied; :func:`peak_weight`), and
+Cycles' anisotropic GGX closure about the fibre, its roughness
+GGX_WIDTH_SCALE sqrt(2 / (s + 2)) along it and 1 across it, weighted ks
+GGX_PEAK_SCALE 4 pi ax co (1 + Lambda(wo)) (:func:`ggx_width`,
+:func:`ggx_weight`; all checked against renders in
+``tests/test_fitting.py``).  Here what that leaves is measured, as
+``fitting/bounds.py`` measures the mixtures: the largest |output - model|
+over the model's peak with views and lights up to 70 deg, the fibre's
+tangent in the surface (the UV tangent, or it turned by Tangent
+Rotation).  The hair closure is 0 where the light and the view lie on
+opposite sides across the fibre (their azimuths about it more than 90 deg
+apart), where the model's cone is not; there the GGX lobe alone lights
+the cone, to about 0.52 GGX_PEAK_SCALE of the peak.
 
 Per colour channel the difference is kd (DIFFUSE_SCALE cos theta_i - sin
 theta_L) + ks (weighted hair - lobe) and the model's peak kd + ks (sin
@@ -51,6 +55,7 @@ import numpy as np
 
 from addon.core.formulas.models import KajiyaKay
 
+from . import closures as C
 from . import ward as W
 
 X_MAX = math.log1p(10000.0)  # log(1 + s) over the socket's range [0, 10000]
@@ -75,6 +80,8 @@ def views():
 
 HAIR_LATITUDE_SCALE = KajiyaKay.HAIR_LATITUDE_SCALE
 HAIR_PEAK_SCALE = KajiyaKay.HAIR_PEAK_SCALE
+GGX_WIDTH_SCALE = KajiyaKay.GGX_WIDTH_SCALE
+GGX_PEAK_SCALE = KajiyaKay.GGX_PEAK_SCALE
 DIFFUSE_SCALE = KajiyaKay.DIFFUSE_SCALE
 
 
@@ -99,6 +106,20 @@ def peak_weight(wo, r1):
     spread = np.arctan((math.pi / 2 + th_r) * 0.5 / r1) - \
         np.arctan((th_r - math.pi / 2) * 0.5 / r1)
     return HAIR_PEAK_SCALE * 8.0 * r1 * spread * np.cos(th_r)
+
+
+def ggx_width(s):
+    """The GGX lobe's roughness along the fibre for exponent s, as the
+    shaders (1 across it)."""
+    return min(max(GGX_WIDTH_SCALE * lobe_width(s), 0.001), 1.0)
+
+
+def ggx_weight(wo, ax):
+    """The GGX lobe's weight of the view (times ks): GGX_PEAK_SCALE 4 pi ax
+    co (1 + Lambda(wo)), which makes its D G2 / (4 co) on the mirror cone
+    GGX_PEAK_SCALE where Lambda(wi) is 0 (D = 1 / (pi ax) there)."""
+    co = np.maximum(wo[..., 2], 0.0)
+    return GGX_PEAK_SCALE * 4.0 * math.pi * ax * co * (1.0 + C.lambda_ggx(wo, ax, 1.0))
 
 
 def hair_reflection(wi, wo, r1, r2=1.0):
@@ -131,8 +152,9 @@ def terms(wi, wo, s):
     as the reference writes it)."""
     sl = np.hypot(wi[..., 1], wi[..., 2])
     d = DIFFUSE_SCALE * np.maximum(wi[..., 2], 0.0) - sl
-    r1 = roughness(s)
-    e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) - lobe(wi, wo, s)
+    r1, ax = roughness(s), ggx_width(s)
+    e = peak_weight(wo, r1) * hair_reflection(wi, wo, r1) + \
+        ggx_weight(wo, ax) * C.microfacet(wi, wo, ax, 1.0, "ggx") - lobe(wi, wo, s)
     return d, e
 
 
@@ -208,13 +230,14 @@ def cells(measured: list, part: int = 0) -> list:
 
 
 def fitter_hash() -> str:
-    """This module, Ward's, whose sampling it takes, and the shaders'
-    constants of the two closures."""
+    """This module, Ward's, whose sampling it takes, the closures'
+    transcription and the shaders' constants of the three closures."""
     root = Path(__file__).resolve().parent.parent
     h = hashlib.sha256()
-    for rel in ("fitting/kajiya_kay.py", "fitting/ward.py"):
+    for rel in ("fitting/kajiya_kay.py", "fitting/ward.py", "fitting/closures.py"):
         h.update((root / rel).read_bytes())
-    h.update(repr((HAIR_LATITUDE_SCALE, HAIR_PEAK_SCALE, DIFFUSE_SCALE)).encode())
+    h.update(repr((HAIR_LATITUDE_SCALE, HAIR_PEAK_SCALE, GGX_WIDTH_SCALE, GGX_PEAK_SCALE,
+                   DIFFUSE_SCALE)).encode())
     return h.hexdigest()[:16]
 
 

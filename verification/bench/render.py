@@ -58,9 +58,11 @@ CLOSURE_FLOORS = {
     # Ward: alpha_x 0.3, alpha_y 0.08
     "beckmann-aniso": 'BSDF = microfacet("beckmann", N, normalize(tangent), 0.3, 0.08, 0.0, 0);',
     # Kajiya-Kay: exponent 40 is the hair lobe's latitudinal roughness
-    # 0.38 sqrt(2 / 42), its azimuthal one 1 (KajiyaKay.closure)
-    "diffuse+hair": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.0829, 1.0, "
-                    "normalize(tangent), 0.0);",
+    # 0.38 sqrt(2 / 42), its azimuthal one 1, and the GGX lobe's roughness
+    # 0.7 sqrt(2 / 42) along the fibre, 1 across it (KajiyaKay.closure)
+    "diffuse+hair+ggx": "BSDF = 0.5 * diffuse(N) + hair_reflection(N, 0.0829, 1.0, "
+                        "normalize(tangent), 0.0) + 0.2 * microfacet(\"ggx\", N, "
+                        "normalize(tangent), 0.1528, 1.0, 0.0, 0);",
 }
 
 # (label, model or None for a floor row, params; for a floor row, the native
@@ -71,7 +73,7 @@ ROWS = [
     ("native aniso Beckmann+UV tangent, OSL", None, "BECKMANN anisotropic"),
     ("aniso Beckmann alone+UV tangent, OSL", None, "closure beckmann-aniso"),
     ("dielectric_bsdf alone, OSL", None, "closure dielectric"),
-    ("diffuse+hair_reflection alone, OSL", None, "closure diffuse+hair"),
+    ("diffuse+hair_reflection+aniso GGX alone, OSL", None, "closure diffuse+hair+ggx"),
     ("lambert", "lambert", {}),
     ("phong", "phong", {}),
     ("blinn_phong", "blinn_phong", {}),
