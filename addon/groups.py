@@ -118,7 +118,7 @@ NODES_VERSION = 30  # 2: a closure-only shader feeds the BSDF output;
 #    nodes for groups saved before
 # 30: Kajiya-Kay's BSDF output adds an anisotropic GGX lobe about the fibre,
 #    which lights the mirror cone across the fibre from the view, where the
-#    hair lobe is 0 (its figure over every light 0.84 of the peak, 1.0
+#    hair lobe is 0 (its figure over every light 0.87 of the peak, 1.0
 #    before): groups saved before get it
 """Bump when the layout of the groups changes; older groups are then listed by
 :func:`find_outdated_groups` and rebuilt by :func:`upgrade_group`."""

@@ -26,11 +26,11 @@ apart), where the model's cone is not; there the GGX lobe alone lights
 the cone, to about 0.52 GGX_PEAK_SCALE of the peak.
 
 Per colour channel the difference is kd (DIFFUSE_SCALE cos theta_i - sin
-theta_L) + ks (weighted hair - lobe) and the model's peak kd + ks (sin
-theta_L = 1 on the mirror cone), so over the peak it depends on the
-exponent and on rho = kd / (kd + ks) alone, and for one set of directions
-it is the largest of |rho d + (1 - rho) e|, convex in rho: over an
-interval of rho its largest is at an end.
+theta_L) + ks (weighted hair + weighted GGX - lobe) and the model's peak
+kd + ks (sin theta_L = 1 on the mirror cone), so over the peak it depends
+on the exponent and on rho = kd / (kd + ks) alone, and for one set of
+directions it is the largest of |rho d + (1 - rho) e|, convex in rho:
+over an interval of rho its largest is at an end.
 So a cell's figure is the larger of its two ratios' at the exponent
 interval's two nodes and its midpoint (in log(1 + s)).
 

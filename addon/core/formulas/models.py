@@ -825,9 +825,9 @@ class KajiyaKay(Formula):
         if "glossy_toon" in (s.caps or ALL_CLOSURES):  # native nodes: EEVEE too
             # EEVEE renders the hair closure as a diffuse one of its colour,
             # where the weight of the view (about 2 at the default exponent,
-            # 6.6 at s = 1) would only brighten a diffuse lobe, and has no
-            # anisotropic GGX: the plain hair lobe of ks there, as before
-            # the weights
+            # 6.6 at s = 1) would only brighten a diffuse lobe (the GGX lobe
+            # was not tried there): the plain hair lobe of ks, as before the
+            # weights
             lobes = E.engine_switch(lobes, closure("hair_reflection", v.p("ks"), s.n, r1, 1.0,
                                                    s.tf, 0.0))
         return closure_sum(closure("diffuse", v.p("kd") * (PI * self.DIFFUSE_SCALE), s.n),
