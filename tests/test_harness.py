@@ -710,7 +710,7 @@ def test_render_benchmark_runs_every_kind_of_row(bpy, capsys):
     assert not [t.name for t in bpy.data.texts if t.name.startswith("bench ")]
     bench_render.print_table(results, resolution=16, samples=1, frames=2, rounds=1)
     table = capsys.readouterr().out
-    assert "native aniso" in table and "hair_reflection alone" in table and "ward" in table
+    assert "native aniso" in table and "hair_reflection+GGX alone" in table and "ward" in table
     assert "ward" + bench_render.NATIVE in table
     assert "<= 1.15x with OSL" in table and "<=0.7" in table and "<= 1.3x" in table
 

@@ -73,7 +73,7 @@ ROWS = [
     ("native aniso Beckmann+UV tangent, OSL", None, "BECKMANN anisotropic"),
     ("aniso Beckmann alone+UV tangent, OSL", None, "closure beckmann-aniso"),
     ("dielectric_bsdf alone, OSL", None, "closure dielectric"),
-    ("diffuse+hair_reflection+aniso GGX alone, OSL", None, "closure diffuse+hair+ggx"),
+    ("diffuse+hair_reflection+GGX alone, OSL", None, "closure diffuse+hair+ggx"),
     ("lambert", "lambert", {}),
     ("phong", "phong", {}),
     ("blinn_phong", "blinn_phong", {}),
