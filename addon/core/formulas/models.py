@@ -799,8 +799,8 @@ class KajiyaKay(Formula):
         # model's cone is not: an anisotropic GGX lobe about the fibre,
         # weighted by the view too, lights the cone there (and adds to the
         # hair lobe on the view's side).
-        r1 = E.clamp(self.HAIR_LATITUDE_SCALE * E.sqrt(div(2.0, v.p("exponent") + 2.0)),
-                     0.001, 1.0)
+        width = E.sqrt(div(2.0, v.p("exponent") + 2.0))  # the model's lobe's, in latitude
+        r1 = E.clamp(self.HAIR_LATITUDE_SCALE * width, 0.001, 1.0)
         ce = E.dot(s.tf, s.wo)
         se = E.length(E.cross(s.tf, s.wo))
         theta_r = E.atan2(ce, se)
@@ -815,8 +815,7 @@ class KajiyaKay(Formula):
         # D = 1 / (pi ax) on the cone; its weight GGX_PEAK_SCALE 4 pi ax co
         # (1 + Lambda(wo)), where co (1 + Lambda) = (co + sqrt(co^2 + ax^2
         # ce^2 + (B.wo)^2)) / 2 and co^2 + ce^2 + (B.wo)^2 = 1: no division
-        ax = E.clamp(self.GGX_WIDTH_SCALE * E.sqrt(div(2.0, v.p("exponent") + 2.0)),
-                     0.001, 1.0)
+        ax = E.clamp(self.GGX_WIDTH_SCALE * width, 0.001, 1.0)
         co = fmax(E.dot(s.n, s.wo), 0.0)
         grazing = E.sqrt(fmax(1.0 - (1.0 - ax * ax) * ce * ce, 0.0))
         lobe = closure("microfacet", v.p("ks") * (2.0 * PI * self.GGX_PEAK_SCALE * ax)
